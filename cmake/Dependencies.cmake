@@ -1,0 +1,21 @@
+# Every external dependency is found here, once. All are Debian 12 packages installed by
+# scripts/setup.sh.
+find_package(Threads REQUIRED)
+find_package(OpenCV 4 REQUIRED COMPONENTS core imgproc imgcodecs features2d calib3d flann)
+find_package(Eigen3 3.3 REQUIRED NO_MODULE)
+find_package(spdlog REQUIRED)
+find_package(yaml-cpp REQUIRED)
+find_package(CLI11 REQUIRED)
+if(SCENELOC_BUILD_TESTS)
+  find_package(GTest REQUIRED)
+endif()
+if(SCENELOC_BUILD_BENCHMARKS)
+  find_package(benchmark REQUIRED)
+endif()
+
+# OpenCV's CMake config exports plain variables; wrap them in one imported target so our
+# targets can link it PRIVATE or PUBLIC like any other.
+add_library(sceneloc_opencv INTERFACE)
+target_include_directories(sceneloc_opencv SYSTEM INTERFACE ${OpenCV_INCLUDE_DIRS})
+target_link_libraries(sceneloc_opencv INTERFACE ${OpenCV_LIBS})
+find_package(nlohmann_json 3 REQUIRED)

@@ -1,0 +1,159 @@
+#include "common/features/extractor.h"
+
+#include <algorithm>
+#include <filesystem>
+#include <opencv2/features2d.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace sceneloc {
+
+Status ExtractorOptions::Validate() const {
+  if (max_features < 0) return InvalidArgument("max_features must be >= 0 (0 = no cap)");
+  if (!(image_scale > 0.0 && image_scale <= 1.0)) {
+    return InvalidArgument("image_scale must be in (0, 1]");
+  }
+  if (!(context_scale > 1.0 && context_scale <= 8.0)) {
+    return InvalidArgument("context_scale must be in (1, 8]");
+  }
+  if (!(contrast_threshold > 0.0)) return InvalidArgument("contrast_threshold must be > 0");
+  if (!(edge_threshold > 0.0)) return InvalidArgument("edge_threshold must be > 0");
+  if (!(sigma > 0.0)) return InvalidArgument("sigma must be > 0");
+  if (max_image_side < 16) return InvalidArgument("max_image_side must be >= 16");
+  return Status::Ok();
+}
+
+namespace {
+
+// L2-normalises each row; an all-zero row stays zero.
+void NormaliseRows(DescriptorMatrix* m) {
+  for (Eigen::Index i = 0; i < m->rows(); ++i) {
+    const float norm = m->row(i).norm();
+    if (norm > 0) m->row(i) /= norm;
+  }
+}
+
+class SiftExtractor final : public FeatureExtractor {
+ public:
+  explicit SiftExtractor(const ExtractorOptions& options) : options_(options) {}
+
+  const ExtractorOptions& options() const override { return options_; }
+
+  StatusOr<FeatureSet> Extract(const cv::Mat& image) const override {
+    if (image.empty()) return InvalidArgument("empty image");
+    if (image.depth() != CV_8U) return InvalidArgument("image must be 8-bit");
+    if (image.cols > options_.max_image_side || image.rows > options_.max_image_side) {
+      return ResourceExhausted("image is " + std::to_string(image.cols) + "x" +
+                               std::to_string(image.rows) + ", larger than max_image_side " +
+                               std::to_string(options_.max_image_side));
+    }
+    try {
+      return ExtractOrThrow(image);
+    } catch (const cv::Exception& e) {
+      return Internal(std::string("OpenCV failed during extraction: ") + e.what());
+    }
+  }
+
+ private:
+  FeatureSet ExtractOrThrow(const cv::Mat& image) const {
+    cv::Mat gray = ToGray(image);
+    if (options_.image_scale != 1.0) {
+      cv::Mat scaled;
+      cv::resize(gray, scaled, cv::Size(), options_.image_scale, options_.image_scale,
+                 cv::INTER_AREA);
+      gray = scaled;
+    }
+    // cv::SIFT holds per-call scratch state, so each call makes its own (cheap).
+    auto sift = cv::SIFT::create(options_.max_features, 3, options_.contrast_threshold,
+                                 options_.edge_threshold, options_.sigma);
+    std::vector<cv::KeyPoint> detected;
+    sift->detect(gray, detected);
+    if (options_.max_features > 0 && static_cast<int>(detected.size()) > options_.max_features) {
+      // SIFT's own cap keeps ties beyond the limit; enforce it exactly.
+      cv::KeyPointsFilter::retainBest(detected, options_.max_features);
+      detected.resize(options_.max_features);
+    }
+    // Local and context keypoints in one compute call: the Gaussian pyramid is built
+    // once and both descriptors are read off it.
+    const size_t n = detected.size();
+    std::vector<cv::KeyPoint> both(detected);
+    both.reserve(2 * n);
+    for (size_t i = 0; i < n; ++i) {
+      cv::KeyPoint wide = detected[i];
+      wide.size = static_cast<float>(wide.size * options_.context_scale);
+      both.push_back(wide);
+    }
+    cv::Mat descriptors;
+    sift->compute(gray, both, descriptors);
+    // SIFT::compute keeps provided keypoints one-to-one; check rather than assume.
+    CV_Assert(both.size() == 2 * n && descriptors.rows == static_cast<int>(2 * n));
+
+    FeatureSet set;
+    set.image_width = gray.cols;
+    set.image_height = gray.rows;
+    set.keypoints.resize(n);
+    set.local.resize(static_cast<Eigen::Index>(n), kDescriptorSize);
+    set.context.resize(static_cast<Eigen::Index>(n), kDescriptorSize);
+    for (size_t i = 0; i < n; ++i) {
+      const cv::KeyPoint& k = detected[i];
+      set.keypoints[i] = {k.pt.x, k.pt.y, k.size, k.angle, k.response, k.octave};
+      const float* local = descriptors.ptr<float>(static_cast<int>(i));
+      const float* context = descriptors.ptr<float>(static_cast<int>(n + i));
+      std::copy(local, local + kDescriptorSize, set.local.row(static_cast<Eigen::Index>(i)).data());
+      std::copy(context, context + kDescriptorSize,
+                set.context.row(static_cast<Eigen::Index>(i)).data());
+    }
+    NormaliseRows(&set.local);
+    NormaliseRows(&set.context);
+    return set;
+  }
+
+  static cv::Mat ToGray(const cv::Mat& image) {
+    if (image.channels() == 1) return image;
+    cv::Mat gray;
+    cv::cvtColor(image, gray, image.channels() == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY);
+    return gray;
+  }
+
+  const ExtractorOptions options_;
+};
+
+}  // namespace
+
+std::unique_ptr<FeatureExtractor> FeatureExtractor::Create(const ExtractorOptions& options) {
+  return std::make_unique<SiftExtractor>(options);
+}
+
+StatusOr<cv::Mat> ReadImageFile(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    return NotFound("'" + path + "' is not a readable file");
+  }
+  cv::Mat image;
+  try {
+    image = cv::imread(path, cv::IMREAD_COLOR);
+  } catch (const cv::Exception& e) {
+    return InvalidArgument("'" + path + "' could not be decoded: " + e.what());
+  }
+  if (image.empty()) return InvalidArgument("'" + path + "' is not a readable image");
+  return image;
+}
+
+StatusOr<cv::Mat> DecodeImage(const std::string& bytes, int max_image_side) {
+  if (bytes.empty()) return InvalidArgument("image bytes are empty");
+  cv::Mat image;
+  try {
+    const cv::Mat buffer(1, static_cast<int>(bytes.size()), CV_8U, const_cast<char*>(bytes.data()));
+    image = cv::imdecode(buffer, cv::IMREAD_COLOR);
+  } catch (const cv::Exception& e) {
+    return InvalidArgument(std::string("image bytes could not be decoded: ") + e.what());
+  }
+  if (image.empty()) return InvalidArgument("image bytes are not a decodable JPEG or PNG");
+  if (image.cols > max_image_side || image.rows > max_image_side) {
+    return ResourceExhausted("image is larger than " + std::to_string(max_image_side) +
+                             " pixels per side");
+  }
+  return image;
+}
+
+}  // namespace sceneloc

@@ -1,0 +1,38 @@
+// The features of one image: what the extractor produces, training consumes, the map's
+// landmarks are fused from, and a thin client sends over the wire.
+#pragma once
+
+#include <Eigen/Core>
+#include <vector>
+
+namespace sceneloc {
+
+// SIFT descriptors have 16 histograms (4 x 4 window) of 8 orientation bins.
+inline constexpr int kDescriptorSize = 128;
+inline constexpr int kNumHistograms = 16;
+inline constexpr int kHistogramBins = 8;
+
+// One row per feature, kDescriptorSize columns, row-major so a row is contiguous.
+using DescriptorMatrix = Eigen::Matrix<float, Eigen::Dynamic, kDescriptorSize, Eigen::RowMajor>;
+
+struct Keypoint {
+  float x = 0;         // pixels, in the extraction frame (the image after image_scale)
+  float y = 0;         // pixels
+  float size = 0;      // SIFT keypoint diameter, pixels
+  float angle = 0;     // degrees in [0, 360), OpenCV's convention
+  float response = 0;  // detector response; larger is stronger
+  int octave = 0;      // OpenCV's packed octave/layer, kept so descriptors can be recomputed
+};
+
+struct FeatureSet {
+  int image_width = 0;   // extraction frame, pixels
+  int image_height = 0;  // extraction frame, pixels
+  std::vector<Keypoint> keypoints;
+  // Row i describes keypoints[i]. Both are L2-normalised per row.
+  DescriptorMatrix local;    // standard SIFT at the keypoint's size
+  DescriptorMatrix context;  // SIFT at the same point and angle, twice the size
+
+  int size() const { return static_cast<int>(keypoints.size()); }
+};
+
+}  // namespace sceneloc

@@ -1,0 +1,295 @@
+#include "common/map/map.h"
+
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <string>
+
+namespace sceneloc {
+namespace {
+
+// What a stored float must satisfy besides being finite.
+enum class Range { kAny, kPositive, kNonNegative, kUnitInterval };
+
+bool InRange(float v, Range range) {
+  if (!std::isfinite(v)) return false;
+  switch (range) {
+    case Range::kAny:
+      return true;
+    case Range::kPositive:
+      return v > 0.0f;
+    case Range::kNonNegative:
+      return v >= 0.0f;
+    case Range::kUnitInterval:
+      return v >= 0.0f && v <= 1.0f;
+  }
+  return false;
+}
+
+const char* Describe(Range range) {
+  switch (range) {
+    case Range::kAny:
+      return "finite";
+    case Range::kPositive:
+      return "finite and > 0";
+    case Range::kNonNegative:
+      return "finite and >= 0";
+    case Range::kUnitInterval:
+      return "in [0, 1]";
+  }
+  return "";
+}
+
+std::string FormatFloat(float v) {
+  std::ostringstream out;
+  out << v;
+  return out.str();
+}
+
+// InRange without branches, so the compiler vectorises the loop: a map holds millions
+// of floats and is validated on every load.
+template <Range kRange>
+bool AllInRange(const float* data, size_t n) {
+  constexpr float kMax = std::numeric_limits<float>::max();
+  bool ok = true;
+  for (size_t i = 0; i < n; ++i) {
+    const float v = data[i];
+    ok &= std::fabs(v) <= kMax;  // false for NaN and infinities
+    if constexpr (kRange == Range::kPositive) ok &= v > 0.0f;
+    if constexpr (kRange == Range::kNonNegative) ok &= v >= 0.0f;
+    if constexpr (kRange == Range::kUnitInterval) ok &= (v >= 0.0f) & (v <= 1.0f);
+  }
+  return ok;
+}
+
+bool AllInRange(const float* data, size_t n, Range range) {
+  switch (range) {
+    case Range::kAny:
+      return AllInRange<Range::kAny>(data, n);
+    case Range::kPositive:
+      return AllInRange<Range::kPositive>(data, n);
+    case Range::kNonNegative:
+      return AllInRange<Range::kNonNegative>(data, n);
+    case Range::kUnitInterval:
+      return AllInRange<Range::kUnitInterval>(data, n);
+  }
+  return false;
+}
+
+// Checks n values laid out as rows of `per_row`; names the first bad one as
+// "name[row]" or "name[row][column]".
+Status CheckValues(const char* name, const float* data, size_t n, size_t per_row, Range range) {
+  if (AllInRange(data, n, range)) return Status::Ok();
+  for (size_t i = 0; i < n; ++i) {
+    if (InRange(data[i], range)) continue;
+    std::string where = std::string(name) + "[" + std::to_string(i / per_row) + "]";
+    if (per_row > 1) where += "[" + std::to_string(i % per_row) + "]";
+    return DataLoss(where + " is " + FormatFloat(data[i]) + ", must be " + Describe(range));
+  }
+  return Status::Ok();
+}
+
+Status CheckVector(const char* name, const std::vector<float>& v, Range range) {
+  return CheckValues(name, v.data(), v.size(), 1, range);
+}
+
+template <typename Matrix>
+Status CheckMatrix(const char* name, const Matrix& m, Range range) {
+  return CheckValues(name, m.data(), static_cast<size_t>(m.size()), static_cast<size_t>(m.cols()),
+                     range);
+}
+
+Status CheckCount(const char* name, size_t size, size_t expected, const char* what) {
+  if (size == expected) return Status::Ok();
+  return DataLoss(std::string(name) + " has " + std::to_string(size) + " entries but the map has " +
+                  std::to_string(expected) + " " + what);
+}
+
+// Checks a CSR offsets array over `count` owners (`owners` names them) for an entries
+// array of `num_entries`: count + 1 offsets, starting at 0, non-decreasing, ending at
+// num_entries.
+Status CheckCsr(const char* name, const std::vector<uint32_t>& offsets, size_t count,
+                const char* owners, const char* entries_name, size_t num_entries) {
+  if (offsets.size() != count + 1) {
+    return DataLoss(std::string(name) + " has " + std::to_string(offsets.size()) +
+                    " entries, expected " + std::to_string(count + 1) + " (" + owners + " + 1)");
+  }
+  if (offsets[0] != 0) {
+    return DataLoss(std::string(name) + " starts at " + std::to_string(offsets[0]) +
+                    ", expected 0");
+  }
+  for (size_t i = 0; i < count; ++i) {
+    if (offsets[i + 1] >= offsets[i]) continue;
+    return DataLoss(std::string(name) + " decreases after entry " + std::to_string(i) + " (" +
+                    std::to_string(offsets[i]) + " then " + std::to_string(offsets[i + 1]) + ")");
+  }
+  if (offsets[count] == num_entries) return Status::Ok();
+  return DataLoss(std::string(name) + " ends at " + std::to_string(offsets[count]) + " but " +
+                  entries_name + " has " + std::to_string(num_entries) + " entries");
+}
+
+// Checks that every entry of a CSR structure refers to an index below `limit`.
+// index_of(j) is entry j's index. REQUIRES: CheckCsr passed.
+template <typename IndexOf>
+Status CheckIndices(const std::vector<uint32_t>& offsets, IndexOf index_of, size_t limit,
+                    const char* entry, const char* owner, const char* target, const char* targets) {
+  for (size_t i = 0; i + 1 < offsets.size(); ++i) {
+    for (uint32_t j = offsets[i]; j < offsets[i + 1]; ++j) {
+      const uint32_t index = index_of(j);
+      if (index < limit) continue;
+      return DataLoss(std::string(entry) + " " + std::to_string(j - offsets[i]) + " of " + owner +
+                      " " + std::to_string(i) + " refers to " + target + " " +
+                      std::to_string(index) + " but the map has " + std::to_string(limit) + " " +
+                      targets);
+    }
+  }
+  return Status::Ok();
+}
+
+Status ValidateImages(const Map& map) {
+  if (map.image_names.empty()) return DataLoss("the map has no tour images");
+  for (size_t i = 0; i < map.image_names.size(); ++i) {
+    if (map.image_names[i].empty())
+      return DataLoss("image_names[" + std::to_string(i) + "] is empty");
+  }
+  if (map.image_width <= 0 || map.image_height <= 0) {
+    return DataLoss("image size " + std::to_string(map.image_width) + "x" +
+                    std::to_string(map.image_height) + " must be positive");
+  }
+  return Status::Ok();
+}
+
+// Every per-landmark array holds L entries (rows for the matrices).
+Status ValidateLandmarkCounts(const Map& map) {
+  const size_t l = static_cast<size_t>(map.local_mean.rows());
+  const char* kWhat = "landmarks";
+  SCENELOC_RETURN_IF_ERROR(CheckCount("local_dmax", map.local_dmax.size(), l, kWhat));
+  SCENELOC_RETURN_IF_ERROR(CheckCount("local_var", map.local_var.size(), l, kWhat));
+  SCENELOC_RETURN_IF_ERROR(CheckCount("context_mean", map.context_mean.rows(), l, kWhat));
+  SCENELOC_RETURN_IF_ERROR(CheckCount("context_dmax", map.context_dmax.rows(), l, kWhat));
+  SCENELOC_RETURN_IF_ERROR(CheckCount("context_var", map.context_var.rows(), l, kWhat));
+  SCENELOC_RETURN_IF_ERROR(CheckCount("mean_x", map.mean_x.size(), l, kWhat));
+  SCENELOC_RETURN_IF_ERROR(CheckCount("mean_y", map.mean_y.size(), l, kWhat));
+  return CheckCount("quality", map.quality.size(), l, kWhat);
+}
+
+Status ValidateObservations(const Map& map) {
+  const size_t l = static_cast<size_t>(map.num_landmarks());
+  const size_t n = map.observation_image.size();
+  SCENELOC_RETURN_IF_ERROR(CheckCsr("observation_offsets", map.observation_offsets, l, "landmarks",
+                                    "observation_image", n));
+  SCENELOC_RETURN_IF_ERROR(
+      CheckCount("observation_x", map.observation_x.size(), n, "observations"));
+  SCENELOC_RETURN_IF_ERROR(
+      CheckCount("observation_y", map.observation_y.size(), n, "observations"));
+  return CheckIndices(
+      map.observation_offsets, [&](uint32_t j) { return map.observation_image[j]; },
+      map.image_names.size(), "observation", "landmark", "image", "images");
+}
+
+Status ValidateNeighbourLinks(const Map& map) {
+  const size_t l = static_cast<size_t>(map.num_landmarks());
+  SCENELOC_RETURN_IF_ERROR(CheckCsr("neighbour_offsets", map.neighbour_offsets, l, "landmarks",
+                                    "neighbours", map.neighbours.size()));
+  return CheckIndices(
+      map.neighbour_offsets, [&](uint32_t j) { return map.neighbours[j].landmark; }, l, "neighbour",
+      "landmark", "landmark", "landmarks");
+}
+
+Status ValidateImageLandmarks(const Map& map) {
+  SCENELOC_RETURN_IF_ERROR(CheckCsr("image_offsets", map.image_offsets, map.image_names.size(),
+                                    "images", "image_landmarks", map.image_landmarks.size()));
+  return CheckIndices(
+      map.image_offsets, [&](uint32_t j) { return map.image_landmarks[j]; },
+      static_cast<size_t>(map.num_landmarks()), "landmark", "image", "landmark", "landmarks");
+}
+
+Status ValidateLandmarkValues(const Map& map) {
+  SCENELOC_RETURN_IF_ERROR(CheckMatrix("local_mean", map.local_mean, Range::kAny));
+  SCENELOC_RETURN_IF_ERROR(CheckVector("local_dmax", map.local_dmax, Range::kNonNegative));
+  SCENELOC_RETURN_IF_ERROR(CheckVector("local_var", map.local_var, Range::kPositive));
+  SCENELOC_RETURN_IF_ERROR(CheckMatrix("context_mean", map.context_mean, Range::kAny));
+  SCENELOC_RETURN_IF_ERROR(CheckMatrix("context_dmax", map.context_dmax, Range::kNonNegative));
+  SCENELOC_RETURN_IF_ERROR(CheckMatrix("context_var", map.context_var, Range::kPositive));
+  SCENELOC_RETURN_IF_ERROR(CheckVector("mean_x", map.mean_x, Range::kAny));
+  SCENELOC_RETURN_IF_ERROR(CheckVector("mean_y", map.mean_y, Range::kAny));
+  SCENELOC_RETURN_IF_ERROR(CheckVector("quality", map.quality, Range::kAny));
+  SCENELOC_RETURN_IF_ERROR(CheckVector("observation_x", map.observation_x, Range::kAny));
+  return CheckVector("observation_y", map.observation_y, Range::kAny);
+}
+
+// The neighbour fields checked by value; `landmark` is checked as an index.
+struct NeighbourField {
+  const char* name;
+  float Neighbour::*member;
+  Range range;
+};
+constexpr NeighbourField kNeighbourFields[] = {
+    {"cooccurrence", &Neighbour::cooccurrence, Range::kUnitInterval},
+    {"distance_mean", &Neighbour::distance_mean, Range::kNonNegative},
+    {"distance_var", &Neighbour::distance_var, Range::kPositive},
+    {"distance_dmax", &Neighbour::distance_dmax, Range::kNonNegative},
+    {"angle_mean", &Neighbour::angle_mean, Range::kAny},
+    {"angle_var", &Neighbour::angle_var, Range::kPositive},
+    {"angle_dmax", &Neighbour::angle_dmax, Range::kNonNegative},
+};
+
+Status ValidateNeighbourValues(const Map& map) {
+  for (size_t j = 0; j < map.neighbours.size(); ++j) {
+    for (const NeighbourField& field : kNeighbourFields) {
+      const float v = map.neighbours[j].*field.member;
+      if (InRange(v, field.range)) continue;
+      return DataLoss("neighbours[" + std::to_string(j) + "]." + field.name + " is " +
+                      FormatFloat(v) + ", must be " + Describe(field.range));
+    }
+  }
+  return Status::Ok();
+}
+
+template <typename T>
+size_t VectorBytes(const std::vector<T>& v) {
+  return v.capacity() * sizeof(T);
+}
+
+template <typename Matrix>
+size_t MatrixBytes(const Matrix& m) {
+  return static_cast<size_t>(m.size()) * sizeof(typename Matrix::Scalar);
+}
+
+}  // namespace
+
+Status Map::Validate() const {
+  Status options_status = options.Validate();
+  if (!options_status.ok()) return DataLoss("training options: " + options_status.message());
+  SCENELOC_RETURN_IF_ERROR(ValidateImages(*this));
+  SCENELOC_RETURN_IF_ERROR(ValidateLandmarkCounts(*this));
+  SCENELOC_RETURN_IF_ERROR(ValidateObservations(*this));
+  SCENELOC_RETURN_IF_ERROR(ValidateNeighbourLinks(*this));
+  SCENELOC_RETURN_IF_ERROR(ValidateImageLandmarks(*this));
+  SCENELOC_RETURN_IF_ERROR(ValidateLandmarkValues(*this));
+  return ValidateNeighbourValues(*this);
+}
+
+void Map::Finalize() {
+  local_mean_sqnorm.resize(static_cast<size_t>(local_mean.rows()));
+  Eigen::Map<Eigen::VectorXf>(local_mean_sqnorm.data(), local_mean.rows()) =
+      local_mean.rowwise().squaredNorm();
+}
+
+size_t Map::MemoryBytes() const {
+  size_t bytes = sizeof(Map) + provenance.tour_dir.capacity() + provenance.created_utc.capacity() +
+                 provenance.tool_version.capacity();
+  bytes += VectorBytes(image_names);
+  for (const std::string& name : image_names) bytes += name.capacity();
+  bytes += MatrixBytes(local_mean) + MatrixBytes(context_mean) + MatrixBytes(context_dmax) +
+           MatrixBytes(context_var);
+  bytes += VectorBytes(local_dmax) + VectorBytes(local_var) + VectorBytes(mean_x) +
+           VectorBytes(mean_y) + VectorBytes(quality);
+  bytes += VectorBytes(observation_offsets) + VectorBytes(observation_image) +
+           VectorBytes(observation_x) + VectorBytes(observation_y);
+  bytes += VectorBytes(neighbour_offsets) + VectorBytes(neighbours);
+  bytes += VectorBytes(image_offsets) + VectorBytes(image_landmarks);
+  return bytes + VectorBytes(local_mean_sqnorm);
+}
+
+}  // namespace sceneloc

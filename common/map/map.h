@@ -1,0 +1,95 @@
+// The landmark map: what sceneloc-train writes, a map file holds, and the matcher reads.
+//
+// Landmarks are stored as structure-of-arrays so the matcher can run matrix products over
+// whole blocks of them. Variable-length per-landmark data (where a landmark was seen, its
+// neighbours) and per-image landmark lists are CSR: an offsets array of size count + 1
+// and one flat array of entries.
+//
+// Thread-safe once built: a Map is immutable after Finalize(); the server shares it as
+// std::shared_ptr<const Map> between concurrent requests.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "common/features/feature_set.h"
+#include "common/map/train_options.h"
+#include "common/util/status.h"
+
+namespace sceneloc {
+
+using HistogramMatrix = Eigen::Matrix<float, Eigen::Dynamic, kNumHistograms, Eigen::RowMajor>;
+
+// Statistics of one co-occurring neighbour g' of a landmark g (paper III-B).
+struct Neighbour {
+  uint32_t landmark = 0;    // index of g'
+  float cooccurrence = 0;   // p(g' | g): images holding both / images holding g
+  float distance_mean = 0;  // |pos(g') - pos(g)| over images holding both, pixels
+  float distance_var = 0;   // variance of that distance (floored), pixels^2
+  float distance_dmax = 0;  // largest |distance - mean|, pixels
+  float angle_mean = 0;     // direction of pos(g') - pos(g), radians in (-pi, pi]
+  float angle_var = 0;      // circular variance of that angle (floored), radians^2
+  float angle_dmax = 0;     // largest wrapped |angle - mean|, radians
+};
+
+// Where and how a map was made.
+struct MapProvenance {
+  std::string tour_dir;         // the tour folder as given to sceneloc-train
+  std::string created_utc;      // ISO 8601
+  std::string tool_version;     // sceneloc version that wrote it
+  uint32_t num_features = 0;    // features extracted over the whole tour
+  uint32_t num_tracks = 0;      // tracks of length >= 2 (landmark candidates)
+  uint32_t num_candidates = 0;  // landmarks before selection
+};
+
+struct Map {
+  TrainOptions options;
+  MapProvenance provenance;
+
+  // Tour images, in tour order; the index is the location number.
+  std::vector<std::string> image_names;
+  int image_width = 0;  // extraction frame of the tour images, pixels
+  int image_height = 0;
+
+  // --- Landmarks: L rows each ---
+  DescriptorMatrix local_mean;    // mu of the local descriptor
+  std::vector<float> local_dmax;  // d_max
+  std::vector<float> local_var;   // sigma^2 (floored)
+  DescriptorMatrix context_mean;  // mu of the context descriptor (16 histograms x 8)
+  HistogramMatrix context_dmax;   // d_max per histogram
+  HistogramMatrix context_var;    // sigma^2 per histogram (floored)
+  std::vector<float> mean_x;      // mean position over the landmark's observations
+  std::vector<float> mean_y;
+  std::vector<float> quality;  // Q (eq. 4)
+
+  // Observations (CSR over landmarks): the tour images a landmark was seen in and where.
+  std::vector<uint32_t> observation_offsets;  // L + 1
+  std::vector<uint32_t> observation_image;
+  std::vector<float> observation_x;
+  std::vector<float> observation_y;
+
+  // Neighbours (CSR over landmarks), sorted by distance from the landmark's mean position.
+  std::vector<uint32_t> neighbour_offsets;  // L + 1
+  std::vector<Neighbour> neighbours;
+
+  // G_l (CSR over tour images): the selected landmarks seen in each tour image.
+  std::vector<uint32_t> image_offsets;  // N + 1
+  std::vector<uint32_t> image_landmarks;
+
+  // --- Derived by Finalize(), not stored ---
+  std::vector<float> local_mean_sqnorm;  // |mu|^2 per landmark
+
+  int num_landmarks() const { return static_cast<int>(local_mean.rows()); }
+  int num_images() const { return static_cast<int>(image_names.size()); }
+
+  // Checks every count and index for consistency; a map that passes can be matched
+  // against without further bounds checks. Errors name the first inconsistency.
+  Status Validate() const;
+  // Computes the derived fields. REQUIRES: Validate().ok().
+  void Finalize();
+  // Approximate heap bytes held by this map.
+  size_t MemoryBytes() const;
+};
+
+}  // namespace sceneloc

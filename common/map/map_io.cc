@@ -1,0 +1,474 @@
+#include "common/map/map_io.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstddef>
+#include <cstring>
+#include <filesystem>
+#include <limits>
+#include <memory>
+#include <sstream>
+#include <type_traits>
+#include <vector>
+
+#include "common/map/crc32.h"
+
+// Arrays are copied between memory and the file with memcpy, which is only the
+// little-endian IEEE layout the format specifies on a little-endian IEEE host.
+#if !defined(__BYTE_ORDER__) || __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
+#error "map_io.cc copies arrays with memcpy and needs a little-endian host"
+#endif
+
+namespace sceneloc {
+namespace {
+
+static_assert(std::numeric_limits<float>::is_iec559 && std::numeric_limits<double>::is_iec559);
+static_assert(sizeof(int) == 4, "the format stores int fields as i32");
+static_assert(std::is_trivially_copyable_v<Neighbour> && sizeof(Neighbour) == 32 &&
+                  offsetof(Neighbour, cooccurrence) == 4 && offsetof(Neighbour, angle_dmax) == 28,
+              "Neighbour is copied as the 32-byte record of map_io.h");
+// A new option must be stored too: add it to TransferOptions, to the layout in
+// map_io.h and to the round-trip test, bump kMapFormatVersion, then update these sizes.
+static_assert(sizeof(void*) != 8 || sizeof(ExtractorOptions) == 56,
+              "ExtractorOptions changed: update the map file format");
+static_assert(sizeof(void*) != 8 || sizeof(TrainOptions) == 160,
+              "TrainOptions changed: update the map file format");
+
+template <typename T>
+using IfArithmetic = std::enable_if_t<std::is_arithmetic_v<T>, int>;
+template <typename T>
+using IfPod = std::enable_if_t<std::is_trivially_copyable_v<T>, int>;
+
+// Appends fields to a byte string in the file's layout. Field names are unused here;
+// they let one TransferMap() describe the layout for both writing and reading.
+class PayloadWriter {
+ public:
+  explicit PayloadWriter(std::string* out) : out_(out) {}
+
+  template <typename T, IfArithmetic<T> = 0>
+  void Field(const char* /*name*/, const T& value) {
+    Append(&value, sizeof(T));
+  }
+  void Field(const char* name, const std::string& value) {
+    Field(name, uint64_t{value.size()});
+    Append(value.data(), value.size());
+  }
+  void Field(const char* name, const std::vector<std::string>& values) {
+    Field(name, uint64_t{values.size()});
+    for (const std::string& value : values) Field(name, value);
+  }
+  template <typename T, IfPod<T> = 0>
+  void Field(const char* name, const std::vector<T>& values) {
+    Field(name, uint64_t{values.size()});
+    Append(values.data(), values.size() * sizeof(T));
+  }
+  template <typename Derived>
+  void Field(const char* name, const Eigen::PlainObjectBase<Derived>& m) {
+    static_assert(Derived::IsRowMajor || Derived::ColsAtCompileTime == 1);
+    Field(name, static_cast<uint64_t>(m.rows()));
+    Field(name, static_cast<uint64_t>(m.cols()));
+    Append(m.data(), static_cast<size_t>(m.size()) * sizeof(typename Derived::Scalar));
+  }
+
+ private:
+  void Append(const void* data, size_t n) { out_->append(static_cast<const char*>(data), n); }
+
+  std::string* out_;
+};
+
+// Reads fields in the file's layout from a bounds-checked buffer. The first failure
+// sticks: later fields are left untouched and status() reports the first problem. A
+// count is checked against the bytes left before anything is allocated for it.
+class PayloadReader {
+ public:
+  PayloadReader(const char* data, size_t size) : data_(data), size_(size) {}
+
+  const Status& status() const { return status_; }
+  size_t remaining() const { return size_ - pos_; }
+
+  template <typename T, IfArithmetic<T> = 0>
+  void Field(const char* name, T& value) {
+    Copy(name, &value, sizeof(T));
+  }
+  void Field(const char* name, std::string& value) {
+    uint64_t n = 0;
+    Field(name, n);
+    if (!Fits(name, n, 1)) return;
+    value.assign(data_ + pos_, n);
+    pos_ += n;
+  }
+  void Field(const char* name, std::vector<std::string>& values) {
+    uint64_t n = 0;
+    Field(name, n);
+    if (!Fits(name, n, sizeof(uint64_t))) return;  // each string has at least its count
+    values.resize(n);
+    for (size_t i = 0; i < n && status_.ok(); ++i) Field(name, values[i]);
+  }
+  template <typename T, IfPod<T> = 0>
+  void Field(const char* name, std::vector<T>& values) {
+    uint64_t n = 0;
+    Field(name, n);
+    if (!Fits(name, n, sizeof(T))) return;
+    values.resize(n);
+    Copy(name, values.data(), n * sizeof(T));
+  }
+  template <typename Derived>
+  void Field(const char* name, Eigen::PlainObjectBase<Derived>& m);
+
+ private:
+  // Whether `count` elements of `element_bytes` fit in what is left; records an error
+  // if not (or if an earlier field failed).
+  bool Fits(const char* name, uint64_t count, size_t element_bytes);
+  void Copy(const char* name, void* out, size_t n);
+  void Fail(const std::string& message) {
+    if (status_.ok()) status_ = DataLoss(message);
+  }
+
+  const char* data_;
+  size_t size_;
+  size_t pos_ = 0;
+  Status status_;
+};
+
+template <typename Derived>
+void PayloadReader::Field(const char* name, Eigen::PlainObjectBase<Derived>& m) {
+  constexpr int kCols = Derived::ColsAtCompileTime;
+  static_assert(kCols != Eigen::Dynamic && (Derived::IsRowMajor || kCols == 1));
+  uint64_t rows = 0, cols = 0;
+  Field(name, rows);
+  Field(name, cols);
+  if (status_.ok() && cols != kCols) {
+    Fail(std::string(name) + " has " + std::to_string(cols) + " columns, expected " +
+         std::to_string(kCols));
+  }
+  if (!Fits(name, rows, kCols * sizeof(typename Derived::Scalar))) return;
+  m.resize(static_cast<Eigen::Index>(rows), kCols);
+  Copy(name, m.data(), static_cast<size_t>(m.size()) * sizeof(typename Derived::Scalar));
+}
+
+bool PayloadReader::Fits(const char* name, uint64_t count, size_t element_bytes) {
+  if (!status_.ok()) return false;
+  if (count <= remaining() / element_bytes) return true;
+  Fail(std::string(name) + " at payload offset " + std::to_string(pos_) + " declares " +
+       std::to_string(count) + " elements of " + std::to_string(element_bytes) +
+       " bytes but only " + std::to_string(remaining()) + " bytes are left");
+  return false;
+}
+
+void PayloadReader::Copy(const char* name, void* out, size_t n) {
+  if (!status_.ok()) return;
+  if (n > remaining()) {
+    Fail(std::string(name) + " at payload offset " + std::to_string(pos_) + " needs " +
+         std::to_string(n) + " bytes but only " + std::to_string(remaining()) + " are left");
+    return;
+  }
+  if (n > 0) std::memcpy(out, data_ + pos_, n);
+  pos_ += n;
+}
+
+// The payload layout, shared by writing (Archive = PayloadWriter, const fields) and
+// reading (PayloadReader, mutable fields). Keep it in step with map_io.h.
+template <typename Archive, typename Options>
+void TransferOptions(Archive& a, Options& o) {
+  a.Field("extractor.max_features", o.extractor.max_features);
+  a.Field("extractor.image_scale", o.extractor.image_scale);
+  a.Field("extractor.context_scale", o.extractor.context_scale);
+  a.Field("extractor.contrast_threshold", o.extractor.contrast_threshold);
+  a.Field("extractor.edge_threshold", o.extractor.edge_threshold);
+  a.Field("extractor.sigma", o.extractor.sigma);
+  a.Field("extractor.max_image_side", o.extractor.max_image_side);
+  a.Field("track_distance_threshold", o.track_distance_threshold);
+  a.Field("ransac_threshold_px", o.ransac_threshold_px);
+  a.Field("ransac_confidence", o.ransac_confidence);
+  a.Field("min_links_per_pair", o.min_links_per_pair);
+  a.Field("local_var_floor", o.local_var_floor);
+  a.Field("context_var_floor", o.context_var_floor);
+  a.Field("distance_var_floor", o.distance_var_floor);
+  a.Field("angle_var_floor", o.angle_var_floor);
+  a.Field("quality_s_min", o.quality_s_min);
+  a.Field("quality_fp_prior", o.quality_fp_prior);
+  a.Field("eta", o.eta);
+  a.Field("q_min", o.q_min);
+  a.Field("max_neighbours", o.max_neighbours);
+}
+
+template <typename Archive, typename Provenance>
+void TransferProvenance(Archive& a, Provenance& p) {
+  a.Field("provenance.tour_dir", p.tour_dir);
+  a.Field("provenance.created_utc", p.created_utc);
+  a.Field("provenance.tool_version", p.tool_version);
+  a.Field("provenance.num_features", p.num_features);
+  a.Field("provenance.num_tracks", p.num_tracks);
+  a.Field("provenance.num_candidates", p.num_candidates);
+}
+
+template <typename Archive, typename MapT>
+void TransferMap(Archive& a, MapT& m) {
+  TransferOptions(a, m.options);
+  TransferProvenance(a, m.provenance);
+  a.Field("image_names", m.image_names);
+  a.Field("image_width", m.image_width);
+  a.Field("image_height", m.image_height);
+  a.Field("local_mean", m.local_mean);
+  a.Field("local_dmax", m.local_dmax);
+  a.Field("local_var", m.local_var);
+  a.Field("context_mean", m.context_mean);
+  a.Field("context_dmax", m.context_dmax);
+  a.Field("context_var", m.context_var);
+  a.Field("mean_x", m.mean_x);
+  a.Field("mean_y", m.mean_y);
+  a.Field("quality", m.quality);
+  a.Field("observation_offsets", m.observation_offsets);
+  a.Field("observation_image", m.observation_image);
+  a.Field("observation_x", m.observation_x);
+  a.Field("observation_y", m.observation_y);
+  a.Field("neighbour_offsets", m.neighbour_offsets);
+  a.Field("neighbours", m.neighbours);
+  a.Field("image_offsets", m.image_offsets);
+  a.Field("image_landmarks", m.image_landmarks);
+}
+
+// --- Header ---
+
+uint32_t GetU32(const char* p) {
+  const auto* u = reinterpret_cast<const unsigned char*>(p);
+  return uint32_t{u[0]} | uint32_t{u[1]} << 8 | uint32_t{u[2]} << 16 | uint32_t{u[3]} << 24;
+}
+
+uint64_t GetU64(const char* p) { return uint64_t{GetU32(p)} | uint64_t{GetU32(p + 4)} << 32; }
+
+void PutU32(uint32_t v, char* p) {
+  for (int i = 0; i < 4; ++i) p[i] = static_cast<char>((v >> (8 * i)) & 0xFFu);
+}
+
+void PutU64(uint64_t v, char* p) {
+  PutU32(static_cast<uint32_t>(v), p);
+  PutU32(static_cast<uint32_t>(v >> 32), p + 4);
+}
+
+constexpr size_t kVersionOffset = 8;
+constexpr size_t kFlagsOffset = 12;
+constexpr size_t kPayloadBytesOffset = 16;
+constexpr size_t kPayloadCrcOffset = 24;
+constexpr size_t kHeaderCrcOffset = 28;
+
+std::string Hex(uint32_t v) {
+  std::ostringstream out;
+  out << "0x" << std::hex << v;
+  return out.str();
+}
+
+std::string Label(const std::string& name) { return "map file '" + name + "'"; }
+
+Status Truncated(const std::string& name, uint64_t expected, size_t found) {
+  return DataLoss(Label(name) + " is truncated: expected " + std::to_string(expected) +
+                  " bytes, found " + std::to_string(found));
+}
+
+// Checks magic and version, the parts every version shares.
+Status CheckPreamble(const char* data, size_t size, const std::string& name) {
+  if (size == 0) return DataLoss(Label(name) + " is empty");
+  if (std::memcmp(data, kMapMagic, std::min(size, sizeof(kMapMagic))) != 0) {
+    return InvalidArgument(Label(name) + " is not a sceneloc map (bad magic)");
+  }
+  if (size < kFlagsOffset) return Truncated(name, kMapHeaderBytes, size);
+  // Checked before the header CRC: a newer version may lay out its header differently.
+  const uint32_t version = GetU32(data + kVersionOffset);
+  if (version > kMapFormatVersion) {
+    return Unimplemented(Label(name) + " has format version " + std::to_string(version) +
+                         ", this build reads up to " + std::to_string(kMapFormatVersion) +
+                         "; upgrade sceneloc");
+  }
+  if (version == 0) return DataLoss(Label(name) + " has invalid format version 0 (corrupt file)");
+  return Status::Ok();
+}
+
+// Checks the header and that the payload it announces is exactly what follows it.
+StatusOr<MapFileInfo> ParseHeader(const char* data, size_t size, const std::string& name) {
+  SCENELOC_RETURN_IF_ERROR(CheckPreamble(data, size, name));
+  if (size < kMapHeaderBytes) return Truncated(name, kMapHeaderBytes, size);
+  const uint32_t stored = GetU32(data + kHeaderCrcOffset);
+  const uint32_t computed = Crc32(data, kHeaderCrcOffset);
+  if (stored != computed) {
+    return DataLoss(Label(name) + " header checksum mismatch: stored " + Hex(stored) +
+                    ", computed " + Hex(computed) + " (corrupt file)");
+  }
+  if (const uint32_t flags = GetU32(data + kFlagsOffset); flags != 0) {
+    return Unimplemented(Label(name) + " has header flags " + Hex(flags) +
+                         " that this build does not know; upgrade sceneloc");
+  }
+  MapFileInfo info;
+  info.format_version = GetU32(data + kVersionOffset);
+  info.payload_bytes = GetU64(data + kPayloadBytesOffset);
+  info.checksum = GetU32(data + kPayloadCrcOffset);
+  const size_t available = size - kMapHeaderBytes;
+  if (info.payload_bytes > available) {
+    const uint64_t max_payload = std::numeric_limits<uint64_t>::max() - kMapHeaderBytes;
+    return Truncated(name, kMapHeaderBytes + std::min(info.payload_bytes, max_payload), size);
+  }
+  if (info.payload_bytes < available) {
+    return DataLoss(Label(name) + " has " + std::to_string(available - info.payload_bytes) +
+                    " unexpected bytes after the payload");
+  }
+  return info;
+}
+
+StatusOr<Map> ParseBuffer(const char* data, size_t size, const std::string& name,
+                          MapFileInfo* info_out) {
+  SCENELOC_ASSIGN_OR_RETURN(const MapFileInfo info, ParseHeader(data, size, name));
+  const char* payload = data + kMapHeaderBytes;
+  const uint32_t computed = Crc32(payload, info.payload_bytes);
+  if (computed != info.checksum) {
+    return DataLoss(Label(name) + " checksum mismatch: payload CRC-32 is " + Hex(computed) +
+                    ", header says " + Hex(info.checksum) + " (corrupt file)");
+  }
+  Map map;
+  PayloadReader reader(payload, info.payload_bytes);
+  TransferMap(reader, map);
+  if (!reader.status().ok()) {
+    return DataLoss(Label(name) + " is malformed: " + reader.status().message());
+  }
+  if (reader.remaining() != 0) {
+    return DataLoss(Label(name) + " is malformed: " + std::to_string(reader.remaining()) +
+                    " payload bytes follow the last field");
+  }
+  if (Status valid = map.Validate(); !valid.ok()) {
+    return DataLoss(Label(name) + ": " + valid.message());
+  }
+  map.Finalize();
+  if (info_out != nullptr) *info_out = info;
+  return map;
+}
+
+// --- Files ---
+
+Status OsError(const std::string& what, const std::string& path, int error) {
+  return IoError(what + " '" + path + "': " + std::strerror(error));
+}
+
+// Writes all of `bytes` to `fd` and fsyncs it. `path` names the file in errors.
+Status WriteAndSync(int fd, const std::string& bytes, const std::string& path) {
+  size_t done = 0;
+  while (done < bytes.size()) {
+    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) return OsError("cannot write", path, errno);
+    done += static_cast<size_t>(n);
+  }
+  if (::fsync(fd) != 0) return OsError("cannot fsync", path, errno);
+  return Status::Ok();
+}
+
+// Makes a completed rename in `dir` durable.
+Status SyncDirectory(const std::string& dir) {
+  const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd < 0) return OsError("cannot open directory", dir, errno);
+  const int result = ::fsync(fd);
+  const int error = errno;
+  ::close(fd);
+  if (result != 0) return OsError("cannot fsync directory", dir, error);
+  return Status::Ok();
+}
+
+// Writes `tmp` completely, or removes it and returns why not.
+Status WriteTemporary(const std::string& tmp, const std::string& bytes) {
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) return OsError("cannot create temporary map file", tmp, errno);
+  Status status = WriteAndSync(fd, bytes, tmp);
+  if (::close(fd) != 0 && status.ok()) status = OsError("cannot close", tmp, errno);
+  if (!status.ok()) ::unlink(tmp.c_str());
+  return status;
+}
+
+Status WriteFileAtomically(const std::string& path, const std::string& bytes) {
+  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  SCENELOC_RETURN_IF_ERROR(WriteTemporary(tmp, bytes));
+  if (::rename(tmp.c_str(), path.c_str()) != 0) {
+    const int error = errno;
+    ::unlink(tmp.c_str());
+    return OsError("cannot rename '" + tmp + "' to map file", path, error);
+  }
+  std::string dir = std::filesystem::path(path).parent_path().string();
+  return SyncDirectory(dir.empty() ? "." : dir);
+}
+
+// Reads the whole regular file at `path` into `buffer`; returns its size.
+StatusOr<size_t> ReadWholeFile(const std::string& path, std::unique_ptr<char[]>* buffer) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0 && errno == ENOENT) return NotFound(Label(path) + " does not exist");
+  if (fd < 0) return OsError("cannot open map file", path, errno);
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) {
+    const int error = errno;
+    ::close(fd);
+    return OsError("cannot stat map file", path, error);
+  }
+  if (!S_ISREG(st.st_mode)) {
+    ::close(fd);
+    return IoError("cannot read " + Label(path) + ": not a regular file");
+  }
+  // Uninitialised on purpose: every byte used is read below.
+  buffer->reset(new char[static_cast<size_t>(st.st_size) + 1]);
+  size_t done = 0;
+  while (done < static_cast<size_t>(st.st_size)) {
+    const ssize_t n = ::read(fd, buffer->get() + done, static_cast<size_t>(st.st_size) - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) {
+      const int error = errno;
+      ::close(fd);
+      return OsError("cannot read map file", path, error);
+    }
+    if (n == 0) break;  // the file shrank since fstat; parsing reports the truncation
+    done += static_cast<size_t>(n);
+  }
+  ::close(fd);
+  return done;
+}
+
+}  // namespace
+
+std::string SerializeMap(const Map& map) {
+  std::string out(kMapHeaderBytes, '\0');
+  out.reserve(kMapHeaderBytes + map.MemoryBytes());  // slightly more than the payload
+  PayloadWriter writer(&out);
+  TransferMap(writer, map);
+  char* header = out.data();
+  std::memcpy(header, kMapMagic, sizeof(kMapMagic));
+  PutU32(kMapFormatVersion, header + kVersionOffset);
+  PutU32(0, header + kFlagsOffset);
+  PutU64(out.size() - kMapHeaderBytes, header + kPayloadBytesOffset);
+  PutU32(Crc32(header + kMapHeaderBytes, out.size() - kMapHeaderBytes), header + kPayloadCrcOffset);
+  PutU32(Crc32(header, kHeaderCrcOffset), header + kHeaderCrcOffset);
+  return out;
+}
+
+Status SaveMap(const Map& map, const std::string& path, MapFileInfo* info) {
+  if (Status valid = map.Validate(); !valid.ok()) {
+    return InvalidArgument("refusing to save an invalid map to '" + path + "': " + valid.message());
+  }
+  const std::string bytes = SerializeMap(map);
+  SCENELOC_RETURN_IF_ERROR(WriteFileAtomically(path, bytes));
+  if (info != nullptr) {
+    info->format_version = kMapFormatVersion;
+    info->payload_bytes = GetU64(bytes.data() + kPayloadBytesOffset);
+    info->checksum = GetU32(bytes.data() + kPayloadCrcOffset);
+  }
+  return Status::Ok();
+}
+
+StatusOr<Map> LoadMap(const std::string& path, MapFileInfo* info) {
+  std::unique_ptr<char[]> buffer;
+  SCENELOC_ASSIGN_OR_RETURN(const size_t size, ReadWholeFile(path, &buffer));
+  return ParseBuffer(buffer.get(), size, path, info);
+}
+
+StatusOr<Map> ParseMap(const std::string& bytes, const std::string& name_for_errors,
+                       MapFileInfo* info) {
+  return ParseBuffer(bytes.data(), bytes.size(), name_for_errors, info);
+}
+
+}  // namespace sceneloc

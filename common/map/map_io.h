@@ -1,0 +1,100 @@
+// Map files: the binary form of a Map, written atomically and read back with every byte
+// checked. A map file comes from disk or the network, so it is untrusted input: no byte
+// sequence makes LoadMap or ParseMap crash, read out of bounds or allocate much more
+// than the file's own size; each failure is a status whose message names the file.
+//
+// Layout, format version 1. Integers are little-endian two's complement, f32/f64 are
+// IEEE 754 binary32/binary64 little-endian. There is no padding anywhere.
+//
+//   Header, 32 bytes:
+//     offset  0  char[8]  magic           "SCNLMAP\0"
+//     offset  8  u32      format_version  kMapFormatVersion
+//     offset 12  u32      flags           0 (none defined; a reader refuses others)
+//     offset 16  u64      payload_bytes   size of the payload; the file ends with it
+//     offset 24  u32      payload_crc     CRC-32 (IEEE, crc32.h) of the payload
+//     offset 28  u32      header_crc      CRC-32 of header bytes 0..27
+//   Payload, in this order:
+//     TrainOptions   extractor: i32 max_features, f64 image_scale, f64 context_scale,
+//                      f64 contrast_threshold, f64 edge_threshold, f64 sigma,
+//                      i32 max_image_side;
+//                    f64 track_distance_threshold, f64 ransac_threshold_px,
+//                    f64 ransac_confidence, i32 min_links_per_pair, f64 local_var_floor,
+//                    f64 context_var_floor, f64 distance_var_floor, f64 angle_var_floor,
+//                    f64 quality_s_min, f64 quality_fp_prior, i32 eta, f64 q_min,
+//                    i32 max_neighbours
+//     MapProvenance  str tour_dir, str created_utc, str tool_version, u32 num_features,
+//                    u32 num_tracks, u32 num_candidates
+//     Images         u64 N, N x str image_names; i32 image_width, i32 image_height
+//     Landmarks      mat local_mean (128 cols), arr<f32> local_dmax, arr<f32> local_var,
+//                    mat context_mean (128), mat context_dmax (16), mat context_var (16),
+//                    arr<f32> mean_x, arr<f32> mean_y, arr<f32> quality
+//     Observations   arr<u32> observation_offsets, arr<u32> observation_image,
+//                    arr<f32> observation_x, arr<f32> observation_y
+//     Neighbours     arr<u32> neighbour_offsets, arr<neighbour> neighbours
+//     Image lists    arr<u32> image_offsets, arr<u32> image_landmarks
+//   where  str       = u64 byte count, then the bytes (UTF-8, no terminator)
+//          arr<T>    = u64 element count, then the elements packed
+//          mat       = u64 rows, u64 cols (must equal the stated count), rows x cols f32
+//                      row-major
+//          neighbour = 32 bytes: u32 landmark, then f32 cooccurrence, distance_mean,
+//                      distance_var, distance_dmax, angle_mean, angle_var, angle_dmax
+//   The derived Map fields (local_mean_sqnorm) are not stored; loading recomputes them.
+//
+// Compatibility: bytes 0..11 (magic and format version) mean the same in every version;
+// everything after them may change with the version. Any change to the layout above
+// bumps kMapFormatVersion. A reader refuses files of a newer version (Unimplemented)
+// rather than guess at them.
+//
+// Thread-safe: these are free functions without shared state. Two concurrent SaveMap
+// calls for the same path from one process share a temporary file name and must not
+// overlap; different paths, or different processes, are fine.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include "common/map/map.h"
+#include "common/util/status.h"
+
+namespace sceneloc {
+
+inline constexpr char kMapMagic[8] = {'S', 'C', 'N', 'L', 'M', 'A', 'P', '\0'};
+inline constexpr uint32_t kMapFormatVersion = 1;
+inline constexpr size_t kMapHeaderBytes = 32;
+
+// What the header of a map file says.
+struct MapFileInfo {
+  uint32_t format_version = 0;
+  uint64_t payload_bytes = 0;
+  // CRC-32 of the payload: identifies the map's content (the same map serialised twice
+  // gives the same checksum), so a server can report which map it serves.
+  uint32_t checksum = 0;
+};
+
+// Writes `map` to `path` so that `path` holds either its old content or the whole new
+// file, never part of one: the bytes go to `path + ".tmp.<pid>"` in the same folder,
+// which is fsynced, renamed over `path`, and the folder fsynced. On failure the
+// temporary file is removed and the status (IoError) names the path and the OS error.
+// A map that fails Validate() is refused (InvalidArgument) and nothing is written.
+// On success, fills *info when info is not null.
+Status SaveMap(const Map& map, const std::string& path, MapFileInfo* info = nullptr);
+
+// Reads, checks, validates and finalises the map file at `path`. Errors name the file:
+// NotFound (no such file), IoError (cannot be read), InvalidArgument (not a map file),
+// Unimplemented (newer format version or unknown header flags), DataLoss (empty,
+// truncated, checksum mismatch, malformed payload, or a map that fails Validate()).
+// On success, fills *info when info is not null.
+StatusOr<Map> LoadMap(const std::string& path, MapFileInfo* info = nullptr);
+
+// LoadMap's work on bytes already in memory (e.g. a map received by the server).
+// `name_for_errors` stands in for the path in error messages.
+StatusOr<Map> ParseMap(const std::string& bytes, const std::string& name_for_errors,
+                       MapFileInfo* info = nullptr);
+
+// The whole file, header and payload, that SaveMap would write for `map`. Does not
+// validate `map`, so tests can build files holding maps that are well-formed but
+// inconsistent.
+std::string SerializeMap(const Map& map);
+
+}  // namespace sceneloc

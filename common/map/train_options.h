@@ -1,0 +1,58 @@
+// The settings that shape a map. They live with the map because every map file carries
+// the settings that made it (so an evaluation or a server can say how a map was built,
+// and extract query features exactly as the tour's were).
+#pragma once
+
+#include "common/features/extractor.h"
+#include "common/util/status.h"
+
+namespace sceneloc {
+
+struct TrainOptions {
+  ExtractorOptions extractor;
+
+  // --- Tracking (paper II-A) ---
+  // t: largest local-descriptor distance (L2, unit descriptors) for a candidate link.
+  double track_distance_threshold = 0.6;
+  // RANSAC fundamental-matrix inlier threshold, pixels in the extraction frame.
+  double ransac_threshold_px = 2.0;
+  // RANSAC confidence in (0, 1).
+  double ransac_confidence = 0.99;
+  // Fewer verified links than this between two images and none of them is kept
+  // (a fundamental matrix needs >= 8 points; fewer cannot be verified).
+  int min_links_per_pair = 12;
+
+  // --- Landmark model (paper II-B) ---
+  // sigma^2_min for the local descriptor: the variance never falls below this, so a
+  // landmark of 2 near-identical features still tolerates a view from elsewhere. Units:
+  // squared L2 distance between unit descriptors.
+  double local_var_floor = 0.02;
+  // sigma^2_min for each of the 16 context histograms (same units, per histogram).
+  double context_var_floor = 0.002;
+  // Floors for the spatial statistics of co-occurring landmarks: distance variance
+  // (pixels^2, extraction frame) and angle variance (radians^2).
+  double distance_var_floor = 100.0;
+  double angle_var_floor = 0.01;
+
+  // --- Quality and selection (paper IV) ---
+  // S_min used when computing Q (eq. 4): pairs below it carry no similarity mass.
+  double quality_s_min = 0.3;
+  // Eq. 4 divides by the false-positive mass, which is 0 for a landmark no foreign
+  // feature resembles. We add this prior mass to the denominator: Q = TP / (FP + prior).
+  // With prior = 1, a landmark that nothing else resembles is ranked by how strongly its
+  // own features recognise it, and the ratio is defined everywhere.
+  double quality_fp_prior = 1.0;
+  // eta: landmarks per tour image kept by the selection; 0 keeps every landmark with
+  // Q >= q_min.
+  int eta = 0;
+  // q_min: landmarks of lower quality are never selected.
+  double q_min = 0.01;
+
+  // --- Co-occurrence (paper III-B) ---
+  // Each landmark keeps at most this many co-occurring neighbours, the nearest first.
+  int max_neighbours = 24;
+
+  Status Validate() const;
+};
+
+}  // namespace sceneloc

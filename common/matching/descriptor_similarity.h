@@ -1,0 +1,37 @@
+// S_D (paper III-A): the descriptor similarity of every feature of an image to every
+// landmark of a map, keeping the pairs with S_D >= s_min.
+//
+//   S_D(f, g) = sim(|a_f - mu_g|; d_max, sigma^2) * mean_h sim(|c_f,h - mu_g,h|; d_max,h,
+//   sigma^2_h)
+//
+// The local term is computed for all pairs at once as one matrix product per block of
+// landmarks (|a|^2 + |mu|^2 - 2 a.mu); since the context mean is at most 1, S_D >= s_min
+// needs sim_local >= s_min, so the context term is computed only for pairs whose local
+// distance passes that bound. This is the hot loop of both recognition and training.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "common/features/feature_set.h"
+#include "common/map/map.h"
+#include "common/util/thread_pool.h"
+
+namespace sceneloc {
+
+struct DescriptorMatch {
+  uint32_t feature = 0;
+  uint32_t landmark = 0;
+  float similarity = 0;  // S_D, in [s_min, 1]
+};
+
+// Returns every (feature, landmark) pair with S_D >= s_min, ordered by landmark, then by
+// feature. `pool` may be null (runs inline). REQUIRES: map.Finalize() was called,
+// 0 < s_min <= 1. Thread-safe for concurrent calls on the same map.
+std::vector<DescriptorMatch> ComputeDescriptorMatches(const FeatureSet& features, const Map& map,
+                                                      float s_min, ThreadPool* pool);
+
+// S_D of one pair, computed directly (the reference the fast path is tested against).
+float DescriptorSimilarity(const FeatureSet& features, int feature, const Map& map, int landmark);
+
+}  // namespace sceneloc

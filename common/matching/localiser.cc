@@ -1,0 +1,108 @@
+#include "common/matching/localiser.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "common/matching/descriptor_similarity.h"
+#include "common/matching/neighbourhood.h"
+#include "common/util/timer.h"
+
+namespace sceneloc {
+
+Status MatchOptions::Validate() const {
+  if (!(s_min > 0.0 && s_min <= 1.0)) return InvalidArgument("s_min must be in (0, 1]");
+  if (max_neighbours < 0) return InvalidArgument("max_neighbours must be >= 0 (0 = all)");
+  if (top_k < 1 || top_k > 1000) return InvalidArgument("top_k must be in [1, 1000]");
+  return Status::Ok();
+}
+
+Status ValidateFeatureSet(const FeatureSet& f) {
+  if (f.image_width <= 0 || f.image_height <= 0) {
+    return InvalidArgument("feature set image size must be positive");
+  }
+  const auto n = static_cast<Eigen::Index>(f.keypoints.size());
+  if (f.local.rows() != n || f.context.rows() != n) {
+    return InvalidArgument("feature set has " + std::to_string(n) + " keypoints but " +
+                           std::to_string(f.local.rows()) + " local and " +
+                           std::to_string(f.context.rows()) + " context descriptors");
+  }
+  if (!f.local.allFinite() || !f.context.allFinite()) {
+    return InvalidArgument("feature set descriptors hold a non-finite number");
+  }
+  for (size_t i = 0; i < f.keypoints.size(); ++i) {
+    const Keypoint& k = f.keypoints[i];
+    if (!std::isfinite(k.x) || !std::isfinite(k.y) || !std::isfinite(k.size) ||
+        !std::isfinite(k.angle)) {
+      return InvalidArgument("keypoint " + std::to_string(i) + " holds a non-finite number");
+    }
+  }
+  return Status::Ok();
+}
+
+StatusOr<std::vector<float>> LocationLikelihoods(const FeatureSet& features, const Map& map,
+                                                 const MatchOptions& options, ThreadPool* pool,
+                                                 LocaliseResult* stats) {
+  SCENELOC_RETURN_IF_ERROR(options.Validate());
+  SCENELOC_RETURN_IF_ERROR(ValidateFeatureSet(features));
+  Stopwatch watch;
+  const std::vector<DescriptorMatch> matches =
+      ComputeDescriptorMatches(features, map, static_cast<float>(options.s_min), pool);
+  stats->descriptor_matches = matches.size();
+  stats->timings.descriptor_ms = watch.Milliseconds();
+
+  watch.Reset();
+  std::vector<float> neighbourhood;
+  if (options.use_neighbourhood) {
+    neighbourhood = NeighbourhoodSimilarities(features, map, matches, options.include_centre_term,
+                                              options.max_neighbours, pool);
+  }
+  stats->timings.neighbourhood_ms = watch.Milliseconds();
+
+  watch.Reset();
+  // max_f S(f, g) per landmark, then eq. 3.
+  std::vector<float> best(static_cast<size_t>(map.num_landmarks()), 0.0f);
+  for (size_t k = 0; k < matches.size(); ++k) {
+    const float s = matches[k].similarity * (options.use_neighbourhood ? neighbourhood[k] : 1.0f);
+    best[matches[k].landmark] = std::max(best[matches[k].landmark], s);
+  }
+  std::vector<float> likelihood(static_cast<size_t>(map.num_images()), 0.0f);
+  for (int l = 0; l < map.num_images(); ++l) {
+    const uint32_t begin = map.image_offsets[l], end = map.image_offsets[l + 1];
+    if (begin == end) continue;
+    double sum = 0;
+    for (uint32_t k = begin; k < end; ++k) sum += best[map.image_landmarks[k]];
+    likelihood[static_cast<size_t>(l)] = static_cast<float>(sum / (end - begin));
+  }
+  stats->timings.likelihood_ms = watch.Milliseconds();
+  return likelihood;
+}
+
+StatusOr<LocaliseResult> Localise(const FeatureSet& features, const Map& map,
+                                  const MatchOptions& options, ThreadPool* pool) {
+  Stopwatch total;
+  LocaliseResult result;
+  SCENELOC_ASSIGN_OR_RETURN(const std::vector<float> likelihood,
+                            LocationLikelihoods(features, map, options, pool, &result));
+  Stopwatch rank;
+  std::vector<int> order(likelihood.size());
+  std::iota(order.begin(), order.end(), 0);
+  const size_t k = std::min(order.size(), static_cast<size_t>(options.top_k));
+  const size_t k2 = std::min(order.size(), std::max<size_t>(k, 2));
+  std::partial_sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(k2), order.end(),
+                    [&](int a, int b) {
+                      return likelihood[a] > likelihood[b] ||
+                             (likelihood[a] == likelihood[b] && a < b);
+                    });
+  for (size_t i = 0; i < k; ++i) {
+    result.ranked.push_back({order[i], map.image_names[order[i]], likelihood[order[i]]});
+  }
+  const float l1 = k2 > 0 ? likelihood[order[0]] : 0.0f;
+  const float l2 = k2 > 1 ? likelihood[order[1]] : 0.0f;
+  result.confidence = l1 + l2 > 0 ? l1 / (l1 + l2) : 0.0f;
+  result.timings.likelihood_ms += rank.Milliseconds();
+  result.timings.total_ms = total.Milliseconds();
+  return result;
+}
+
+}  // namespace sceneloc

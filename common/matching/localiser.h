@@ -1,0 +1,72 @@
+// Recognition (paper III): features of one frame + a map -> tour locations ranked by
+// likelihood, with a confidence and per-stage timings. This is the library call the
+// server and sceneloc-eval make.
+//
+//   S_D  descriptor similarity, pruned at s_min          (descriptor_similarity.h, eq. 1)
+//   S_N  neighbourhood similarity with S_A               (neighbourhood.h, eq. 2)
+//   S    = S_D * S_N
+//   L(l) = sum_{g in G_l} max_f S(f, g) / |G_l|          (eq. 3)
+//   confidence = L1 / (L1 + L2)
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "common/features/feature_set.h"
+#include "common/map/map.h"
+#include "common/util/status.h"
+#include "common/util/thread_pool.h"
+
+namespace sceneloc {
+
+struct MatchOptions {
+  // S_min: feature-landmark pairs with S_D below this are dropped (paper: 0.3).
+  double s_min = 0.3;
+  // Use S = S_D * S_N (paper). false scores with S_D alone (ablation).
+  bool use_neighbourhood = true;
+  // Eq. 2 as printed sums its denominator from n = 0, i.e. includes the centre landmark's
+  // own weight p(g|g) = 1. true follows the printed equation.
+  bool include_centre_term = true;
+  // Walk at most this many neighbours of each landmark (0 = all the map stores).
+  int max_neighbours = 0;
+  // How many ranked locations a result carries.
+  int top_k = 5;
+
+  Status Validate() const;
+};
+
+struct RankedLocation {
+  int index = 0;           // tour location (image index in the map)
+  std::string image_name;  // tour image file name
+  float likelihood = 0;    // L(l)
+};
+
+struct StageTimings {
+  double descriptor_ms = 0;     // S_D over all pairs
+  double neighbourhood_ms = 0;  // S_N over the surviving pairs
+  double likelihood_ms = 0;     // L(l) and ranking
+  double total_ms = 0;
+};
+
+struct LocaliseResult {
+  std::vector<RankedLocation> ranked;  // best first, at most top_k
+  float confidence = 0;                // L1 / (L1 + L2); 0 when nothing matched
+  size_t descriptor_matches = 0;       // pairs with S_D >= s_min
+  StageTimings timings;
+};
+
+// Checks a feature set from an untrusted source: consistent counts, finite values,
+// coordinates inside the image.
+Status ValidateFeatureSet(const FeatureSet& features);
+
+// Localises one frame. `pool` may be null (runs on the caller). Thread-safe: any number
+// of calls may share one map and one pool. REQUIRES: map is Validate()d and Finalize()d.
+StatusOr<LocaliseResult> Localise(const FeatureSet& features, const Map& map,
+                                  const MatchOptions& options, ThreadPool* pool);
+
+// The likelihood of every tour location (exposed for evaluation and tests).
+StatusOr<std::vector<float>> LocationLikelihoods(const FeatureSet& features, const Map& map,
+                                                 const MatchOptions& options, ThreadPool* pool,
+                                                 LocaliseResult* stats);
+
+}  // namespace sceneloc

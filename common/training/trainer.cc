@@ -1,0 +1,226 @@
+#include "common/training/trainer.h"
+
+#include <algorithm>
+#include <atomic>
+#include <ctime>
+#include <mutex>
+
+#include "common/training/cooccurrence.h"
+#include "common/training/landmark_builder.h"
+#include "common/training/quality.h"
+#include "common/training/selection.h"
+#include "common/training/tracker.h"
+#include "common/util/image_folder.h"
+#include "common/util/thread_pool.h"
+#include "common/util/timer.h"
+
+namespace sceneloc {
+namespace {
+
+std::string UtcNow() {
+  const std::time_t now = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  char buffer[32];
+  std::strftime(buffer, sizeof(buffer), "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buffer;
+}
+
+// A map holding only the landmarks in `keep` (ascending), with observations; quality
+// copied, neighbours and image lists left for BuildNeighbours.
+Map SubsetLandmarks(const Map& all, const std::vector<uint32_t>& keep) {
+  Map out;
+  out.options = all.options;
+  out.provenance = all.provenance;
+  out.image_names = all.image_names;
+  out.image_width = all.image_width;
+  out.image_height = all.image_height;
+  const auto n = static_cast<Eigen::Index>(keep.size());
+  out.local_mean.resize(n, kDescriptorSize);
+  out.context_mean.resize(n, kDescriptorSize);
+  out.context_dmax.resize(n, kNumHistograms);
+  out.context_var.resize(n, kNumHistograms);
+  out.observation_offsets.assign(1, 0);
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const uint32_t g = keep[static_cast<size_t>(k)];
+    out.local_mean.row(k) = all.local_mean.row(g);
+    out.context_mean.row(k) = all.context_mean.row(g);
+    out.context_dmax.row(k) = all.context_dmax.row(g);
+    out.context_var.row(k) = all.context_var.row(g);
+    out.local_dmax.push_back(all.local_dmax[g]);
+    out.local_var.push_back(all.local_var[g]);
+    out.mean_x.push_back(all.mean_x[g]);
+    out.mean_y.push_back(all.mean_y[g]);
+    out.quality.push_back(all.quality[g]);
+    for (uint32_t o = all.observation_offsets[g]; o < all.observation_offsets[g + 1]; ++o) {
+      out.observation_image.push_back(all.observation_image[o]);
+      out.observation_x.push_back(all.observation_x[o]);
+      out.observation_y.push_back(all.observation_y[o]);
+    }
+    out.observation_offsets.push_back(static_cast<uint32_t>(out.observation_image.size()));
+  }
+  return out;
+}
+
+void SummariseTracks(const std::vector<Track>& tracks, TrainSummary* s) {
+  s->tracks = tracks.size();
+  size_t total = 0;
+  for (const Track& t : tracks) {
+    total += t.size();
+    s->max_track_length = std::max(s->max_track_length, t.size());
+  }
+  s->mean_track_length = tracks.empty() ? 0.0 : static_cast<double>(total) / tracks.size();
+}
+
+void SummariseImages(const Map& map, TrainSummary* s) {
+  s->landmarks_kept = static_cast<size_t>(map.num_landmarks());
+  s->landmarks_per_image_min = SIZE_MAX;
+  for (int l = 0; l < map.num_images(); ++l) {
+    const size_t count = map.image_offsets[l + 1] - map.image_offsets[l];
+    s->landmarks_per_image_min = std::min(s->landmarks_per_image_min, count);
+    s->landmarks_per_image_max = std::max(s->landmarks_per_image_max, count);
+  }
+  s->landmarks_per_image_mean =
+      static_cast<double>(map.image_landmarks.size()) / std::max(1, map.num_images());
+}
+
+}  // namespace
+
+StatusOr<std::vector<FeatureSet>> ExtractFolder(const std::vector<std::string>& image_paths,
+                                                const ExtractorOptions& options, int threads,
+                                                const ProgressFn& progress) {
+  SCENELOC_RETURN_IF_ERROR(options.Validate());
+  const auto extractor = FeatureExtractor::Create(options);
+  std::vector<FeatureSet> features(image_paths.size());
+  std::vector<Status> errors(image_paths.size());
+  std::atomic<size_t> done{0};
+  std::mutex progress_mutex;
+  ThreadPool pool(threads);
+  pool.ParallelFor(image_paths.size(), 1, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
+      auto image = ReadImageFile(image_paths[i]);
+      if (!image.ok()) {
+        errors[i] = image.status();
+        continue;
+      }
+      auto set = extractor->Extract(*image);
+      if (!set.ok()) {
+        errors[i] =
+            Status(set.status().code(), "'" + image_paths[i] + "': " + set.status().message());
+        continue;
+      }
+      features[i] = std::move(set).value();
+      const size_t n = ++done;
+      if (progress) {
+        std::lock_guard<std::mutex> lock(progress_mutex);
+        progress("extract", n, image_paths.size());
+      }
+    }
+  });
+  for (const Status& e : errors) SCENELOC_RETURN_IF_ERROR(e);
+  return features;
+}
+
+StatusOr<TrainResult> TrainFromFeatures(const std::vector<FeatureSet>& tour,
+                                        const std::vector<std::string>& image_names,
+                                        const TrainOptions& options, int threads,
+                                        const ProgressFn& progress) {
+  SCENELOC_RETURN_IF_ERROR(options.Validate());
+  if (tour.size() < 2) {
+    return FailedPrecondition("a tour needs at least 2 images, got " + std::to_string(tour.size()));
+  }
+  if (image_names.size() != tour.size()) return InvalidArgument("one image name per tour image");
+  TrainResult result;
+  TrainSummary& s = result.summary;
+  s.images = tour.size();
+  for (const FeatureSet& f : tour) s.features += static_cast<size_t>(f.size());
+  ThreadPool pool(threads);
+
+  Stopwatch watch;
+  TrackingStats tracking;
+  const std::vector<Track> tracks = BuildTracks(tour, options, &pool, &tracking);
+  s.candidate_links = tracking.candidate_links;
+  s.verified_links = tracking.verified_links;
+  SummariseTracks(tracks, &s);
+  s.track_seconds = watch.Seconds();
+  if (progress) progress("track", tour.size() - 1, tour.size() - 1);
+  if (tracks.empty()) {
+    return FailedPrecondition(
+        "no feature could be tracked between consecutive tour images; "
+        "are the images of one route, in order?");
+  }
+
+  watch.Reset();
+  Map candidates;
+  candidates.options = options;
+  candidates.image_names = image_names;
+  candidates.image_width = tour.front().image_width;
+  candidates.image_height = tour.front().image_height;
+  FuseLandmarks(tracks, tour, options, &candidates);
+  BuildImageLists(&candidates);
+  candidates.neighbour_offsets.assign(tracks.size() + 1, 0);
+  SCENELOC_RETURN_IF_ERROR(candidates.Validate());
+  candidates.Finalize();
+  s.landmarks_before_selection = tracks.size();
+  s.fuse_seconds = watch.Seconds();
+
+  watch.Reset();
+  candidates.quality =
+      ComputeQuality(candidates, tracks, tour, options.quality_s_min, options.quality_fp_prior,
+                     &pool, [&](size_t done, size_t total) {
+                       if (progress) progress("quality", done, total);
+                     });
+  s.quality_seconds = watch.Seconds();
+
+  watch.Reset();
+  std::vector<std::vector<uint32_t>> landmark_images(tracks.size());
+  for (size_t t = 0; t < tracks.size(); ++t) {
+    for (const TrackObservation& o : tracks[t]) landmark_images[t].push_back(o.image);
+  }
+  const std::vector<uint32_t> keep =
+      SelectLandmarks(landmark_images, candidates.quality, static_cast<int>(tour.size()),
+                      options.eta, options.q_min);
+  s.select_seconds = watch.Seconds();
+  if (keep.empty()) {
+    return FailedPrecondition("no landmark reached q_min = " + std::to_string(options.q_min));
+  }
+
+  watch.Reset();
+  result.map = SubsetLandmarks(candidates, keep);
+  BuildNeighbours(options, &result.map);
+  s.cooccurrence_seconds = watch.Seconds();
+  SummariseImages(result.map, &s);
+
+  MapProvenance& p = result.map.provenance;
+  p.created_utc = UtcNow();
+  p.tool_version = "0.1.0";
+  p.num_features = static_cast<uint32_t>(s.features);
+  p.num_tracks = static_cast<uint32_t>(s.tracks);
+  p.num_candidates = static_cast<uint32_t>(s.landmarks_before_selection);
+  SCENELOC_RETURN_IF_ERROR(result.map.Validate());
+  result.map.Finalize();
+  return result;
+}
+
+StatusOr<TrainResult> TrainFromFolder(const std::string& tour_dir, const TrainOptions& options,
+                                      int threads, const ProgressFn& progress) {
+  SCENELOC_RETURN_IF_ERROR(options.Validate());
+  SCENELOC_ASSIGN_OR_RETURN(const std::vector<std::string> paths, ListImageFiles(tour_dir));
+  if (paths.size() < 2) {
+    return FailedPrecondition("tour folder '" + tour_dir + "' holds " +
+                              std::to_string(paths.size()) + " image; a tour needs at least 2");
+  }
+  Stopwatch watch;
+  SCENELOC_ASSIGN_OR_RETURN(const std::vector<FeatureSet> tour,
+                            ExtractFolder(paths, options.extractor, threads, progress));
+  const double extract_seconds = watch.Seconds();
+  std::vector<std::string> names;
+  for (const std::string& path : paths) names.push_back(FileName(path));
+  SCENELOC_ASSIGN_OR_RETURN(TrainResult result,
+                            TrainFromFeatures(tour, names, options, threads, progress));
+  result.summary.extract_seconds = extract_seconds;
+  result.map.provenance.tour_dir = tour_dir;
+  return result;
+}
+
+}  // namespace sceneloc

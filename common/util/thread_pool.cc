@@ -1,0 +1,102 @@
+#include "common/util/thread_pool.h"
+
+#include <algorithm>
+#include <atomic>
+
+namespace sceneloc {
+
+ThreadPool::ThreadPool(int num_threads) : num_threads_(std::max(1, num_threads)) {
+  for (int i = 1; i < num_threads_; ++i) workers_.emplace_back([this] { WorkerLoop(); });
+}
+
+ThreadPool::~ThreadPool() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stopping_ = true;
+  }
+  cv_.notify_all();
+  for (auto& worker : workers_) worker.join();
+}
+
+void ThreadPool::Schedule(std::function<void()> task) {
+  if (workers_.empty()) {
+    task();
+    return;
+  }
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    queue_.push_back(std::move(task));
+  }
+  cv_.notify_one();
+}
+
+void ThreadPool::WorkerLoop() {
+  for (;;) {
+    std::function<void()> task;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      cv_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
+      if (queue_.empty()) return;  // stopping and drained
+      task = std::move(queue_.front());
+      queue_.pop_front();
+    }
+    task();
+  }
+}
+
+namespace {
+
+// Shared between the caller and the helpers of one ParallelFor. Helpers may start after
+// the caller has already returned (they find no chunk left), hence the shared_ptr.
+struct LoopState {
+  size_t n = 0;
+  size_t chunk = 0;
+  size_t num_chunks = 0;
+  std::function<void(size_t, size_t)> fn;
+  std::atomic<size_t> next{0};
+  std::atomic<size_t> done{0};
+  std::mutex mutex;
+  std::condition_variable cv;
+
+  // Runs chunks until none is left.
+  void Drain() {
+    for (;;) {
+      const size_t c = next.fetch_add(1);
+      if (c >= num_chunks) return;
+      const size_t begin = c * chunk;
+      fn(begin, std::min(n, begin + chunk));
+      if (done.fetch_add(1) + 1 == num_chunks) {
+        std::lock_guard<std::mutex> lock(mutex);
+        cv.notify_all();
+      }
+    }
+  }
+};
+
+}  // namespace
+
+void ThreadPool::ParallelFor(size_t n, size_t min_chunk,
+                             const std::function<void(size_t, size_t)>& fn) {
+  if (n == 0) return;
+  min_chunk = std::max<size_t>(1, min_chunk);
+  // A few chunks per thread balance uneven work without much scheduling overhead.
+  const size_t target_chunks = static_cast<size_t>(num_threads_) * 4;
+  const size_t chunk = std::max(min_chunk, (n + target_chunks - 1) / target_chunks);
+  const size_t num_chunks = (n + chunk - 1) / chunk;
+  if (num_threads_ == 1 || num_chunks == 1) {
+    fn(0, n);
+    return;
+  }
+  auto state = std::make_shared<LoopState>();
+  state->n = n;
+  state->chunk = chunk;
+  state->num_chunks = num_chunks;
+  state->fn = fn;
+  const size_t helpers = std::min(num_chunks - 1, workers_.size());
+  for (size_t i = 0; i < helpers; ++i) Schedule([state] { state->Drain(); });
+  state->Drain();
+  std::unique_lock<std::mutex> lock(state->mutex);
+  state->cv.wait(lock, [&] { return state->done.load() == num_chunks; });
+}
+
+}  // namespace sceneloc

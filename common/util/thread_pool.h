@@ -1,0 +1,52 @@
+// A fixed pool of worker threads and a ParallelFor on top of it.
+//
+// Thread-safe: Schedule() and ParallelFor() may be called from any number of threads at
+// once, including from inside a task. ParallelFor's caller works on its own loop too, so a
+// ParallelFor never waits on a pool that is busy with other callers' work: it degrades
+// to running inline, which is what the server wants under load (no request waits for
+// another request's scoring to finish before its own can start).
+#pragma once
+
+#include <condition_variable>
+#include <cstddef>
+#include <deque>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+namespace sceneloc {
+
+class ThreadPool {
+ public:
+  // num_threads <= 1 creates no worker: every ParallelFor runs inline on the caller.
+  explicit ThreadPool(int num_threads);
+  ~ThreadPool();  // finishes queued tasks, then joins the workers
+  ThreadPool(const ThreadPool&) = delete;
+  ThreadPool& operator=(const ThreadPool&) = delete;
+
+  // Number of threads that run a ParallelFor: the workers plus the caller, at least 1.
+  int num_threads() const { return num_threads_; }
+
+  void Schedule(std::function<void()> task);
+
+  // Calls fn(begin, end) over [0, n) split into contiguous chunks of at least min_chunk
+  // items; returns when every chunk is done. Runs inline when there is one thread or
+  // one chunk. fn must not throw.
+  void ParallelFor(size_t n, size_t min_chunk,
+                   const std::function<void(size_t begin, size_t end)>& fn);
+
+ private:
+  void WorkerLoop();
+
+  const int num_threads_;
+  std::vector<std::thread> workers_;
+  // Guarded by mutex_.
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  std::deque<std::function<void()>> queue_;
+  bool stopping_ = false;
+};
+
+}  // namespace sceneloc

@@ -1,0 +1,13 @@
+#!/usr/bin/env bash
+# Configures and builds sceneloc (Release) into ./build. Extra arguments go to CMake's
+# configure step, e.g. scripts/build.sh -DASAN=ON.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+generator=()
+command -v ninja >/dev/null && generator=(-G Ninja)
+if [[ ! -f build/CMakeCache.txt ]]; then
+  cmake -S . -B build "${generator[@]}" -DCMAKE_BUILD_TYPE=Release "$@"
+elif (($#)); then
+  cmake -S . -B build "$@"
+fi
+cmake --build build -j"$(nproc)"

@@ -1,0 +1,73 @@
+#include "common/config/config.h"
+
+#include <gtest/gtest.h>
+
+namespace sceneloc {
+namespace {
+
+// A file overrides exactly the keys it names and keeps the other defaults.
+TEST(ConfigTest, OverridesOnlyNamedKeys) {
+  TrainOptions o;
+  ASSERT_TRUE(
+      ParseTrainOptions("extractor:\n  max_features: 500\nselection:\n  eta: 40\n", "t", &o).ok());
+  EXPECT_EQ(o.extractor.max_features, 500);
+  EXPECT_EQ(o.eta, 40);
+  EXPECT_EQ(o.track_distance_threshold, TrainOptions().track_distance_threshold);
+}
+
+// Unknown sections and keys, wrong types and out-of-range values are errors naming them,
+// and leave the options untouched.
+TEST(ConfigTest, RejectsUnknownKeysWrongTypesAndRanges) {
+  TrainOptions o;
+  const TrainOptions before = o;
+  Status s = ParseTrainOptions("extractor:\n  max_feature: 5\n", "train.yaml", &o);
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("unknown key 'extractor.max_feature'"), std::string::npos);
+  EXPECT_NE(s.message().find("train.yaml"), std::string::npos);
+  s = ParseTrainOptions("trackin:\n  x: 1\n", "t", &o);
+  EXPECT_NE(s.message().find("unknown section 'trackin'"), std::string::npos);
+  s = ParseTrainOptions("tracking:\n  distance_threshold: abc\n", "t", &o);
+  EXPECT_NE(s.message().find("tracking.distance_threshold must be a number"), std::string::npos);
+  s = ParseTrainOptions("selection:\n  eta: 2.5\n", "t", &o);
+  EXPECT_NE(s.message().find("selection.eta must be an integer"), std::string::npos);
+  s = ParseTrainOptions("extractor:\n  image_scale: 3\n", "t", &o);
+  EXPECT_NE(s.message().find("extractor.image_scale = 3 is out of range"), std::string::npos);
+  s = ParseTrainOptions("[1, 2]", "t", &o);
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(o.extractor.max_features, before.extractor.max_features);
+  EXPECT_EQ(o.extractor.image_scale, before.extractor.image_scale);
+}
+
+// Matching settings parse, including booleans.
+TEST(ConfigTest, MatchOptions) {
+  MatchOptions o;
+  ASSERT_TRUE(
+      ParseMatchOptions("matching:\n  include_centre_term: false\n  s_min: 0.25\n", "m", &o).ok());
+  EXPECT_FALSE(o.include_centre_term);
+  EXPECT_DOUBLE_EQ(o.s_min, 0.25);
+  EXPECT_EQ(ParseMatchOptions("matching:\n  use_neighbourhood: maybe\n", "m", &o).code(),
+            StatusCode::kInvalidArgument);
+}
+
+// The YAML the tools print parses back to the same settings.
+TEST(ConfigTest, RoundTripsThroughYaml) {
+  TrainOptions o;
+  o.eta = 33;
+  o.extractor.image_scale = 0.75;
+  TrainOptions back;
+  ASSERT_TRUE(ParseTrainOptions(TrainOptionsToYaml(o), "rt", &back).ok());
+  EXPECT_EQ(back.eta, 33);
+  EXPECT_DOUBLE_EQ(back.extractor.image_scale, 0.75);
+}
+
+// The shipped settings files load and hold the defaults the code documents.
+TEST(ConfigTest, ShippedFilesLoad) {
+  TrainOptions t;
+  ASSERT_TRUE(LoadTrainOptions(std::string(SCENELOC_CONFIGS_DIR) + "/train.yaml", &t).ok());
+  MatchOptions m;
+  ASSERT_TRUE(LoadMatchOptions(std::string(SCENELOC_CONFIGS_DIR) + "/match.yaml", &m).ok());
+  EXPECT_EQ(LoadTrainOptions("/nonexistent/train.yaml", &t).code(), StatusCode::kNotFound);
+}
+
+}  // namespace
+}  // namespace sceneloc

@@ -1,0 +1,232 @@
+// Map::Validate, Finalize and MemoryBytes, and TrainOptions::Validate.
+#include "common/map/map.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "common/map/train_options.h"
+#include "tests/support/test_map.h"
+
+namespace sceneloc {
+namespace {
+
+using test::MakeRandomMap;
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+// Maps made by the test helper pass Validate for several sizes, including a map with
+// no landmarks and a one-image tour.
+TEST(MapTest, RandomMapsAreValid) {
+  for (const auto& [images, landmarks] :
+       std::vector<std::pair<int, int>>{{1, 0}, {1, 5}, {2, 1}, {10, 50}, {40, 300}}) {
+    const Map map = MakeRandomMap(images, landmarks, 7);
+    EXPECT_TRUE(map.Validate().ok()) << map.Validate().ToString();
+    EXPECT_EQ(map.num_images(), images);
+    EXPECT_EQ(map.num_landmarks(), landmarks);
+  }
+}
+
+// Finalize fills local_mean_sqnorm with each landmark's squared descriptor norm,
+// checked against a plain loop.
+TEST(MapTest, FinalizeComputesSquaredNorms) {
+  Map map = MakeRandomMap(8, 40, 3);
+  map.local_mean.row(5) *= 3.0f;
+  map.local_mean_sqnorm.clear();
+  map.Finalize();
+  ASSERT_EQ(map.local_mean_sqnorm.size(), 40u);
+  for (int i = 0; i < 40; ++i) {
+    double sum = 0;
+    for (int j = 0; j < kDescriptorSize; ++j)
+      sum += double{map.local_mean(i, j)} * map.local_mean(i, j);
+    EXPECT_NEAR(map.local_mean_sqnorm[i], sum, 1e-5 * sum) << "landmark " << i;
+  }
+  EXPECT_NEAR(map.local_mean_sqnorm[5], 9.0f, 1e-4f);
+}
+
+// MemoryBytes counts at least the descriptor matrices and grows with the map.
+TEST(MapTest, MemoryBytesCoversTheArrays) {
+  const Map small = MakeRandomMap(10, 20, 1);
+  const Map large = MakeRandomMap(10, 400, 1);
+  const size_t descriptors = 400 * (2 * kDescriptorSize + 2 * kNumHistograms) * sizeof(float);
+  EXPECT_GE(large.MemoryBytes(), descriptors);
+  EXPECT_GT(large.MemoryBytes(), small.MemoryBytes());
+}
+
+// One way to break a valid map, and the words its error must contain.
+struct Breakage {
+  std::string name;
+  std::function<void(Map*)> apply;
+  std::string expected_message;
+};
+
+class MapValidateTest : public ::testing::TestWithParam<Breakage> {};
+
+// Validate reports each kind of inconsistency as DataLoss naming what is wrong.
+TEST_P(MapValidateTest, RejectsInconsistency) {
+  Map map = MakeRandomMap(12, 60, 11);
+  ASSERT_TRUE(map.Validate().ok());
+  GetParam().apply(&map);
+  const Status status = map.Validate();
+  EXPECT_EQ(status.code(), StatusCode::kDataLoss) << status.ToString();
+  EXPECT_NE(status.message().find(GetParam().expected_message), std::string::npos)
+      << status.message();
+}
+
+// The first landmark with at least one neighbour.
+int LandmarkWithNeighbour(const Map& map) {
+  for (int g = 0; g < map.num_landmarks(); ++g) {
+    if (map.neighbour_offsets[g + 1] > map.neighbour_offsets[g]) return g;
+  }
+  return -1;
+}
+
+std::vector<Breakage> Breakages() {
+  return {
+      {"InvalidOptions", [](Map* m) { m->options.ransac_confidence = 1.5; },
+       "training options: ransac_confidence must be in (0, 1)"},
+      {"NoImages", [](Map* m) { m->image_names.clear(); }, "no tour images"},
+      {"EmptyImageName", [](Map* m) { m->image_names[3].clear(); }, "image_names[3] is empty"},
+      {"ZeroWidth", [](Map* m) { m->image_width = 0; }, "image size 0x270"},
+      {"ShortLandmarkArray", [](Map* m) { m->local_var.pop_back(); },
+       "local_var has 59 entries but the map has 60 landmarks"},
+      {"ShortContextMatrix", [](Map* m) { m->context_var.conservativeResize(59, kNumHistograms); },
+       "context_var has 59 entries"},
+      {"ShortQuality", [](Map* m) { m->quality.push_back(1); }, "quality has 61 entries"},
+      {"OffsetsWrongLength", [](Map* m) { m->observation_offsets.pop_back(); },
+       "observation_offsets has 60 entries, expected 61"},
+      {"OffsetsNotFromZero", [](Map* m) { m->neighbour_offsets[0] = 1; },
+       "neighbour_offsets starts at 1, expected 0"},
+      {"OffsetsDecrease",
+       [](Map* m) { m->observation_offsets[10] = m->observation_offsets[11] + 1; },
+       "observation_offsets decreases"},
+      {"OffsetsEndEarly", [](Map* m) { m->image_landmarks.push_back(0); }, "image_offsets ends at"},
+      {"ObservationArraysDiffer", [](Map* m) { m->observation_y.pop_back(); }, "observation_y has"},
+      {"ObservationImageOutOfRange",
+       [](Map* m) { m->observation_image[m->observation_offsets[4] + 1] = 12; },
+       "observation 1 of landmark 4 refers to image 12 but the map has 12 images"},
+      {"NeighbourOutOfRange",
+       [](Map* m) {
+         const int g = LandmarkWithNeighbour(*m);
+         m->neighbours[m->neighbour_offsets[g]].landmark = 99999;
+       },
+       "refers to landmark 99999 but the map has 60 landmarks"},
+      {"ImageLandmarkOutOfRange", [](Map* m) { m->image_landmarks.back() = 60; },
+       "refers to landmark 60 but the map has 60 landmarks"},
+      {"NaNDescriptor", [](Map* m) { m->local_mean(7, 100) = kNaN; },
+       "local_mean[7][100] is nan, must be finite"},
+      {"InfiniteContext", [](Map* m) { m->context_mean(2, 3) = kInf; },
+       "context_mean[2][3] is inf"},
+      {"ZeroVariance", [](Map* m) { m->local_var[9] = 0; },
+       "local_var[9] is 0, must be finite and > 0"},
+      {"NegativeContextVariance", [](Map* m) { m->context_var(1, 15) = -1; },
+       "context_var[1][15] is -1"},
+      {"NegativeDmax", [](Map* m) { m->local_dmax[0] = -0.5f; }, "local_dmax[0] is -0.5"},
+      {"NegativeContextDmax", [](Map* m) { m->context_dmax(4, 0) = -1; }, "context_dmax[4][0]"},
+      {"NaNPosition", [](Map* m) { m->mean_y[3] = kNaN; }, "mean_y[3] is nan"},
+      {"NaNObservation", [](Map* m) { m->observation_x[0] = kNaN; }, "observation_x[0] is nan"},
+      {"InfiniteQuality", [](Map* m) { m->quality[2] = kInf; }, "quality[2] is inf"},
+      {"CooccurrenceAboveOne", [](Map* m) { m->neighbours[0].cooccurrence = 1.5f; },
+       "neighbours[0].cooccurrence is 1.5, must be in [0, 1]"},
+      {"ZeroDistanceVariance", [](Map* m) { m->neighbours[1].distance_var = 0; },
+       "neighbours[1].distance_var is 0"},
+      {"NegativeAngleDmax", [](Map* m) { m->neighbours[2].angle_dmax = -1; },
+       "neighbours[2].angle_dmax is -1"},
+      {"NaNAngle", [](Map* m) { m->neighbours[0].angle_mean = kNaN; },
+       "neighbours[0].angle_mean is nan"},
+  };
+}
+
+INSTANTIATE_TEST_SUITE_P(Breakages, MapValidateTest, ::testing::ValuesIn(Breakages()),
+                         [](const auto& info) { return info.param.name; });
+
+// The default training options are valid.
+TEST(TrainOptionsTest, DefaultsAreValid) {
+  const TrainOptions options;
+  EXPECT_TRUE(options.Validate().ok()) << options.Validate().ToString();
+}
+
+// The range limits themselves are accepted where the range is closed.
+TEST(TrainOptionsTest, AcceptsClosedBounds) {
+  TrainOptions options;
+  options.track_distance_threshold = 2.0;
+  options.min_links_per_pair = 8;
+  options.quality_fp_prior = 0;
+  options.eta = 0;
+  options.q_min = 0;
+  options.max_neighbours = 256;
+  EXPECT_TRUE(options.Validate().ok()) << options.Validate().ToString();
+  options.max_neighbours = 0;
+  EXPECT_TRUE(options.Validate().ok()) << options.Validate().ToString();
+}
+
+struct BadOption {
+  std::string name;
+  std::function<void(TrainOptions*)> apply;
+  std::string expected_message;
+};
+
+class TrainOptionsValidateTest : public ::testing::TestWithParam<BadOption> {};
+
+// Each out-of-range value is InvalidArgument naming the field and its allowed range.
+TEST_P(TrainOptionsValidateTest, RejectsOutOfRange) {
+  TrainOptions options;
+  GetParam().apply(&options);
+  const Status status = options.Validate();
+  EXPECT_EQ(status.code(), StatusCode::kInvalidArgument) << status.ToString();
+  EXPECT_NE(status.message().find(GetParam().expected_message), std::string::npos)
+      << status.message();
+}
+
+std::vector<BadOption> BadOptions() {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  return {
+      {"ExtractorScale", [](TrainOptions* o) { o->extractor.image_scale = 2; },
+       "extractor.image_scale must be in (0, 1]"},
+      {"TrackThresholdZero", [](TrainOptions* o) { o->track_distance_threshold = 0; },
+       "track_distance_threshold must be in (0, 2], got 0"},
+      {"TrackThresholdAboveTwo", [](TrainOptions* o) { o->track_distance_threshold = 2.5; },
+       "track_distance_threshold must be in (0, 2], got 2.5"},
+      {"TrackThresholdNaN", [nan](TrainOptions* o) { o->track_distance_threshold = nan; },
+       "track_distance_threshold must be in (0, 2]"},
+      {"RansacThreshold", [](TrainOptions* o) { o->ransac_threshold_px = 0; },
+       "ransac_threshold_px must be > 0"},
+      {"RansacConfidenceOne", [](TrainOptions* o) { o->ransac_confidence = 1; },
+       "ransac_confidence must be in (0, 1)"},
+      {"RansacConfidenceZero", [](TrainOptions* o) { o->ransac_confidence = 0; },
+       "ransac_confidence must be in (0, 1)"},
+      {"MinLinks", [](TrainOptions* o) { o->min_links_per_pair = 7; },
+       "min_links_per_pair must be >= 8, got 7"},
+      {"LocalVarFloor", [](TrainOptions* o) { o->local_var_floor = 0; },
+       "local_var_floor must be > 0"},
+      {"ContextVarFloor", [](TrainOptions* o) { o->context_var_floor = -1; },
+       "context_var_floor must be > 0"},
+      {"DistanceVarFloor", [](TrainOptions* o) { o->distance_var_floor = 0; },
+       "distance_var_floor must be > 0"},
+      {"AngleVarFloor", [nan](TrainOptions* o) { o->angle_var_floor = nan; },
+       "angle_var_floor must be > 0"},
+      {"QualitySMinOne", [](TrainOptions* o) { o->quality_s_min = 1; },
+       "quality_s_min must be in (0, 1)"},
+      {"QualitySMinZero", [](TrainOptions* o) { o->quality_s_min = 0; },
+       "quality_s_min must be in (0, 1)"},
+      {"FpPrior", [](TrainOptions* o) { o->quality_fp_prior = -0.1; },
+       "quality_fp_prior must be >= 0"},
+      {"Eta", [](TrainOptions* o) { o->eta = -1; }, "eta must be >= 0, got -1"},
+      {"QMin", [](TrainOptions* o) { o->q_min = -0.01; }, "q_min must be >= 0"},
+      {"MaxNeighboursNegative", [](TrainOptions* o) { o->max_neighbours = -1; },
+       "max_neighbours must be in [0, 256], got -1"},
+      {"MaxNeighboursLarge", [](TrainOptions* o) { o->max_neighbours = 257; },
+       "max_neighbours must be in [0, 256], got 257"},
+  };
+}
+
+INSTANTIATE_TEST_SUITE_P(BadOptions, TrainOptionsValidateTest, ::testing::ValuesIn(BadOptions()),
+                         [](const auto& info) { return info.param.name; });
+
+}  // namespace
+}  // namespace sceneloc

@@ -1,0 +1,126 @@
+#include "common/matching/localiser.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "common/matching/descriptor_similarity.h"
+#include "common/matching/neighbourhood.h"
+#include "tests/support/test_map.h"
+
+namespace sceneloc {
+namespace {
+
+// The features of tour image `l` as the map saw them: its landmarks' means at their
+// observed positions, plus a few random features.
+FeatureSet FeaturesOfImage(const Map& map, int l, uint32_t seed) {
+  FeatureSet f;
+  f.image_width = map.image_width;
+  f.image_height = map.image_height;
+  std::vector<int> rows;
+  for (uint32_t k = map.image_offsets[l]; k < map.image_offsets[l + 1]; ++k) {
+    const uint32_t g = map.image_landmarks[k];
+    for (uint32_t o = map.observation_offsets[g]; o < map.observation_offsets[g + 1]; ++o) {
+      if (map.observation_image[o] != static_cast<uint32_t>(l)) continue;
+      f.keypoints.push_back({map.observation_x[o], map.observation_y[o], 4, 0, 1, 0});
+      rows.push_back(static_cast<int>(g));
+    }
+  }
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> n(0, 1);
+  const int extra = 20;
+  f.local.resize(static_cast<int>(rows.size()) + extra, kDescriptorSize);
+  f.context.resize(static_cast<int>(rows.size()) + extra, kDescriptorSize);
+  for (size_t i = 0; i < rows.size(); ++i) {
+    f.local.row(i) = map.local_mean.row(rows[i]);
+    f.context.row(i) = map.context_mean.row(rows[i]);
+  }
+  for (int i = 0; i < extra; ++i) {
+    const int r = static_cast<int>(rows.size()) + i;
+    for (int c = 0; c < kDescriptorSize; ++c) {
+      f.local(r, c) = std::abs(n(rng));
+      f.context(r, c) = std::abs(n(rng));
+    }
+    f.local.row(r).normalize();
+    f.context.row(r).normalize();
+    f.keypoints.push_back({float(rng() % 600), float(rng() % 300), 4, 0, 1, 0});
+  }
+  return f;
+}
+
+// L(l) from the library equals eq. 3 computed pair by pair from the reference S_D and S_N.
+TEST(LocaliserTest, LikelihoodsMatchBruteForceEquationThree) {
+  const Map map = test::MakeRandomMap(15, 400, 21);
+  const FeatureSet f = FeaturesOfImage(map, 7, 1);
+  MatchOptions options;
+  const auto all = ComputeDescriptorMatches(f, map, float(options.s_min), nullptr);
+  std::vector<float> best(map.num_landmarks(), 0);
+  for (const auto& m : all) {
+    const float s_n = NeighbourhoodSimilarity(f, map, all, m.feature, m.landmark, true, 0);
+    best[m.landmark] = std::max(best[m.landmark], m.similarity * s_n);
+  }
+  ThreadPool pool(2);
+  LocaliseResult stats;
+  const auto got = LocationLikelihoods(f, map, options, &pool, &stats);
+  ASSERT_TRUE(got.ok()) << got.status().ToString();
+  for (int l = 0; l < map.num_images(); ++l) {
+    double sum = 0;
+    const uint32_t b = map.image_offsets[l], e = map.image_offsets[l + 1];
+    for (uint32_t k = b; k < e; ++k) sum += best[map.image_landmarks[k]];
+    EXPECT_NEAR((*got)[l], e > b ? sum / (e - b) : 0.0, 1e-5) << "location " << l;
+  }
+}
+
+// Ranking and confidence: best first, top_k long, confidence = L1 / (L1 + L2); with S_D
+// alone the image whose landmarks were all seen scores L = 1 and wins.
+TEST(LocaliserTest, RanksAndComputesConfidence) {
+  const Map map = test::MakeRandomMap(15, 400, 22);
+  const FeatureSet f = FeaturesOfImage(map, 7, 2);
+  MatchOptions options;
+  options.use_neighbourhood = false;
+  options.top_k = 4;
+  const auto r = Localise(f, map, options, nullptr);
+  ASSERT_TRUE(r.ok());
+  ASSERT_EQ(r->ranked.size(), 4u);
+  EXPECT_FLOAT_EQ(r->ranked[0].likelihood, 1.0f);
+  EXPECT_EQ(r->ranked[0].image_name, map.image_names[r->ranked[0].index]);
+  for (size_t i = 1; i < r->ranked.size(); ++i) {
+    EXPECT_LE(r->ranked[i].likelihood, r->ranked[i - 1].likelihood);
+  }
+  const float l1 = r->ranked[0].likelihood, l2 = r->ranked[1].likelihood;
+  EXPECT_NEAR(r->confidence, l1 / (l1 + l2), 1e-6);
+  EXPECT_GT(r->descriptor_matches, 0u);
+}
+
+// Untrusted feature sets: mismatched counts and non-finite numbers are refused.
+TEST(LocaliserTest, RefusesMalformedFeatureSets) {
+  const Map map = test::MakeRandomMap(5, 50, 23);
+  FeatureSet f = FeaturesOfImage(map, 2, 3);
+  FeatureSet short_local = f;
+  short_local.local.conservativeResize(f.size() - 1, kDescriptorSize);
+  EXPECT_EQ(Localise(short_local, map, {}, nullptr).status().code(), StatusCode::kInvalidArgument);
+  FeatureSet nan = f;
+  nan.context(0, 5) = std::nanf("");
+  EXPECT_EQ(Localise(nan, map, {}, nullptr).status().code(), StatusCode::kInvalidArgument);
+  FeatureSet inf_x = f;
+  inf_x.keypoints[0].x = INFINITY;
+  EXPECT_EQ(Localise(inf_x, map, {}, nullptr).status().code(), StatusCode::kInvalidArgument);
+  MatchOptions bad;
+  bad.s_min = 0;
+  EXPECT_EQ(Localise(f, map, bad, nullptr).status().code(), StatusCode::kInvalidArgument);
+}
+
+// An empty frame gives no answer and zero confidence, not an error.
+TEST(LocaliserTest, EmptyFrameHasZeroConfidence) {
+  const Map map = test::MakeRandomMap(5, 50, 24);
+  FeatureSet f;
+  f.image_width = 100;
+  f.image_height = 100;
+  const auto r = Localise(f, map, {}, nullptr);
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(r->confidence, 0.0f);
+  EXPECT_EQ(r->ranked[0].likelihood, 0.0f);
+}
+
+}  // namespace
+}  // namespace sceneloc

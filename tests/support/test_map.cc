@@ -1,0 +1,252 @@
+#include "tests/support/test_map.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <random>
+#include <string>
+#include <vector>
+
+namespace sceneloc::test {
+namespace {
+
+constexpr int kWidth = 480;
+constexpr int kHeight = 270;
+
+float Uniform(std::mt19937& rng, float lo, float hi) {
+  return std::uniform_real_distribution<float>(lo, hi)(rng);
+}
+
+int UniformInt(std::mt19937& rng, int lo, int hi) {
+  return std::uniform_int_distribution<int>(lo, hi)(rng);
+}
+
+// Non-negative rows of unit L2 norm, like SIFT descriptors.
+void FillUnitRows(std::mt19937& rng, DescriptorMatrix* m) {
+  for (Eigen::Index i = 0; i < m->rows(); ++i) {
+    for (int j = 0; j < kDescriptorSize; ++j) (*m)(i, j) = Uniform(rng, 0.0f, 1.0f);
+    m->row(i).normalize();
+  }
+}
+
+void FillDescriptors(std::mt19937& rng, Map* map) {
+  const int l = map->num_landmarks();
+  FillUnitRows(rng, &map->local_mean);
+  FillUnitRows(rng, &map->context_mean);
+  map->context_dmax.resize(l, kNumHistograms);
+  map->context_var.resize(l, kNumHistograms);
+  for (int i = 0; i < l; ++i) {
+    map->local_dmax.push_back(Uniform(rng, 0.1f, 0.6f));
+    map->local_var.push_back(Uniform(rng, 0.02f, 0.1f));
+    map->quality.push_back(Uniform(rng, 0.0f, 5.0f));
+    for (int h = 0; h < kNumHistograms; ++h) {
+      map->context_dmax(i, h) = Uniform(rng, 0.0f, 0.3f);
+      map->context_var(i, h) = Uniform(rng, 0.002f, 0.05f);
+    }
+  }
+}
+
+// Each landmark: a track over consecutive images, jittering around one point.
+void FillObservations(std::mt19937& rng, Map* map) {
+  const int n = map->num_images();
+  map->observation_offsets.push_back(0);
+  for (int g = 0; g < map->num_landmarks(); ++g) {
+    const int length = UniformInt(rng, std::min(2, n), std::min(5, n));
+    const int first = UniformInt(rng, 0, n - length);
+    const float x = Uniform(rng, 0.0f, kWidth), y = Uniform(rng, 0.0f, kHeight);
+    float sum_x = 0, sum_y = 0;
+    for (int k = 0; k < length; ++k) {
+      map->observation_image.push_back(static_cast<uint32_t>(first + k));
+      map->observation_x.push_back(x + Uniform(rng, -3.0f, 3.0f));
+      map->observation_y.push_back(y + Uniform(rng, -3.0f, 3.0f));
+      sum_x += map->observation_x.back();
+      sum_y += map->observation_y.back();
+    }
+    map->mean_x.push_back(sum_x / length);
+    map->mean_y.push_back(sum_y / length);
+    map->observation_offsets.push_back(static_cast<uint32_t>(map->observation_image.size()));
+  }
+}
+
+// G_l: the landmarks seen in each image, in landmark order.
+void FillImageLists(Map* map) {
+  std::vector<std::vector<uint32_t>> lists(map->num_images());
+  for (int g = 0; g < map->num_landmarks(); ++g) {
+    for (uint32_t j = map->observation_offsets[g]; j < map->observation_offsets[g + 1]; ++j) {
+      lists[map->observation_image[j]].push_back(static_cast<uint32_t>(g));
+    }
+  }
+  map->image_offsets.push_back(0);
+  for (const std::vector<uint32_t>& list : lists) {
+    map->image_landmarks.insert(map->image_landmarks.end(), list.begin(), list.end());
+    map->image_offsets.push_back(static_cast<uint32_t>(map->image_landmarks.size()));
+  }
+}
+
+// Landmarks sharing an image with g, each with the number of images shared.
+std::vector<std::pair<uint32_t, int>> CoOccurring(const Map& map, int g, std::vector<int>* shared) {
+  std::vector<std::pair<uint32_t, int>> result;
+  std::vector<uint32_t> seen;
+  for (uint32_t j = map.observation_offsets[g]; j < map.observation_offsets[g + 1]; ++j) {
+    const uint32_t image = map.observation_image[j];
+    for (uint32_t k = map.image_offsets[image]; k < map.image_offsets[image + 1]; ++k) {
+      const uint32_t other = map.image_landmarks[k];
+      if (other == static_cast<uint32_t>(g)) continue;
+      if ((*shared)[other]++ == 0) seen.push_back(other);
+    }
+  }
+  for (uint32_t other : seen) {
+    result.emplace_back(other, (*shared)[other]);
+    (*shared)[other] = 0;
+  }
+  return result;
+}
+
+Neighbour MakeNeighbour(std::mt19937& rng, const Map& map, int g, uint32_t other, int shared) {
+  const float dx = map.mean_x[other] - map.mean_x[g];
+  const float dy = map.mean_y[other] - map.mean_y[g];
+  Neighbour n;
+  n.landmark = other;
+  n.cooccurrence = static_cast<float>(shared) /
+                   static_cast<float>(map.observation_offsets[g + 1] - map.observation_offsets[g]);
+  n.distance_mean = std::hypot(dx, dy);
+  n.distance_var = 100.0f + Uniform(rng, 0.0f, 50.0f);
+  n.distance_dmax = Uniform(rng, 0.0f, 10.0f);
+  n.angle_mean = std::atan2(dy, dx);
+  n.angle_var = 0.01f + Uniform(rng, 0.0f, 0.1f);
+  n.angle_dmax = Uniform(rng, 0.0f, 0.5f);
+  return n;
+}
+
+void FillNeighbours(std::mt19937& rng, Map* map) {
+  std::vector<int> shared(map->num_landmarks(), 0);
+  map->neighbour_offsets.push_back(0);
+  for (int g = 0; g < map->num_landmarks(); ++g) {
+    std::vector<Neighbour> list;
+    for (const auto& [other, count] : CoOccurring(*map, g, &shared)) {
+      list.push_back(MakeNeighbour(rng, *map, g, other, count));
+    }
+    std::sort(list.begin(), list.end(), [](const Neighbour& a, const Neighbour& b) {
+      return a.distance_mean < b.distance_mean ||
+             (a.distance_mean == b.distance_mean && a.landmark < b.landmark);
+    });
+    list.resize(std::min<size_t>(list.size(), map->options.max_neighbours));
+    map->neighbours.insert(map->neighbours.end(), list.begin(), list.end());
+    map->neighbour_offsets.push_back(static_cast<uint32_t>(map->neighbours.size()));
+  }
+}
+
+void FillHeader(int num_images, uint32_t seed, Map* map) {
+  map->provenance.tour_dir = "tours/random_" + std::to_string(seed);
+  map->provenance.created_utc = "2024-05-01T12:00:00Z";
+  map->provenance.tool_version = "test";
+  for (int i = 0; i < num_images; ++i) {
+    char name[32];
+    std::snprintf(name, sizeof(name), "frame_%05d.jpg", i);
+    map->image_names.push_back(name);
+  }
+  map->image_width = kWidth;
+  map->image_height = kHeight;
+}
+
+}  // namespace
+
+Map MakeRandomMap(int num_images, int num_landmarks, uint32_t seed) {
+  std::mt19937 rng(seed);
+  Map map;
+  FillHeader(num_images, seed, &map);
+  map.local_mean.resize(num_landmarks, kDescriptorSize);
+  map.context_mean.resize(num_landmarks, kDescriptorSize);
+  FillDescriptors(rng, &map);
+  FillObservations(rng, &map);
+  FillImageLists(&map);
+  FillNeighbours(rng, &map);
+  map.provenance.num_features = static_cast<uint32_t>(map.observation_image.size() * 3);
+  map.provenance.num_tracks = static_cast<uint32_t>(num_landmarks * 2);
+  map.provenance.num_candidates = static_cast<uint32_t>(num_landmarks);
+  if (Status status = map.Validate(); !status.ok()) {
+    std::fprintf(stderr, "MakeRandomMap made an invalid map: %s\n", status.ToString().c_str());
+    std::abort();
+  }
+  map.Finalize();
+  return map;
+}
+
+namespace {
+
+void ExpectOptionsEqual(const TrainOptions& a, const TrainOptions& b) {
+  EXPECT_EQ(a.extractor.max_features, b.extractor.max_features);
+  EXPECT_EQ(a.extractor.image_scale, b.extractor.image_scale);
+  EXPECT_EQ(a.extractor.context_scale, b.extractor.context_scale);
+  EXPECT_EQ(a.extractor.contrast_threshold, b.extractor.contrast_threshold);
+  EXPECT_EQ(a.extractor.edge_threshold, b.extractor.edge_threshold);
+  EXPECT_EQ(a.extractor.sigma, b.extractor.sigma);
+  EXPECT_EQ(a.extractor.max_image_side, b.extractor.max_image_side);
+  EXPECT_EQ(a.track_distance_threshold, b.track_distance_threshold);
+  EXPECT_EQ(a.ransac_threshold_px, b.ransac_threshold_px);
+  EXPECT_EQ(a.ransac_confidence, b.ransac_confidence);
+  EXPECT_EQ(a.min_links_per_pair, b.min_links_per_pair);
+  EXPECT_EQ(a.local_var_floor, b.local_var_floor);
+  EXPECT_EQ(a.context_var_floor, b.context_var_floor);
+  EXPECT_EQ(a.distance_var_floor, b.distance_var_floor);
+  EXPECT_EQ(a.angle_var_floor, b.angle_var_floor);
+  EXPECT_EQ(a.quality_s_min, b.quality_s_min);
+  EXPECT_EQ(a.quality_fp_prior, b.quality_fp_prior);
+  EXPECT_EQ(a.eta, b.eta);
+  EXPECT_EQ(a.q_min, b.q_min);
+  EXPECT_EQ(a.max_neighbours, b.max_neighbours);
+}
+
+template <typename Matrix>
+void ExpectMatricesEqual(const char* name, const Matrix& a, const Matrix& b) {
+  ASSERT_EQ(a.rows(), b.rows()) << name;
+  ASSERT_EQ(a.cols(), b.cols()) << name;
+  const size_t bytes = static_cast<size_t>(a.size()) * sizeof(typename Matrix::Scalar);
+  EXPECT_TRUE(bytes == 0 || std::memcmp(a.data(), b.data(), bytes) == 0) << name << " differs";
+}
+
+template <typename T>
+void ExpectArraysEqual(const char* name, const std::vector<T>& a, const std::vector<T>& b) {
+  ASSERT_EQ(a.size(), b.size()) << name;
+  EXPECT_TRUE(a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0)
+      << name << " differs";
+}
+
+}  // namespace
+
+void ExpectMapsEqual(const Map& a, const Map& b) {
+  ExpectOptionsEqual(a.options, b.options);
+  EXPECT_EQ(a.provenance.tour_dir, b.provenance.tour_dir);
+  EXPECT_EQ(a.provenance.created_utc, b.provenance.created_utc);
+  EXPECT_EQ(a.provenance.tool_version, b.provenance.tool_version);
+  EXPECT_EQ(a.provenance.num_features, b.provenance.num_features);
+  EXPECT_EQ(a.provenance.num_tracks, b.provenance.num_tracks);
+  EXPECT_EQ(a.provenance.num_candidates, b.provenance.num_candidates);
+  EXPECT_EQ(a.image_names, b.image_names);
+  EXPECT_EQ(a.image_width, b.image_width);
+  EXPECT_EQ(a.image_height, b.image_height);
+  ExpectMatricesEqual("local_mean", a.local_mean, b.local_mean);
+  ExpectArraysEqual("local_dmax", a.local_dmax, b.local_dmax);
+  ExpectArraysEqual("local_var", a.local_var, b.local_var);
+  ExpectMatricesEqual("context_mean", a.context_mean, b.context_mean);
+  ExpectMatricesEqual("context_dmax", a.context_dmax, b.context_dmax);
+  ExpectMatricesEqual("context_var", a.context_var, b.context_var);
+  ExpectArraysEqual("mean_x", a.mean_x, b.mean_x);
+  ExpectArraysEqual("mean_y", a.mean_y, b.mean_y);
+  ExpectArraysEqual("quality", a.quality, b.quality);
+  ExpectArraysEqual("observation_offsets", a.observation_offsets, b.observation_offsets);
+  ExpectArraysEqual("observation_image", a.observation_image, b.observation_image);
+  ExpectArraysEqual("observation_x", a.observation_x, b.observation_x);
+  ExpectArraysEqual("observation_y", a.observation_y, b.observation_y);
+  ExpectArraysEqual("neighbour_offsets", a.neighbour_offsets, b.neighbour_offsets);
+  ExpectArraysEqual("neighbours", a.neighbours, b.neighbours);
+  ExpectArraysEqual("image_offsets", a.image_offsets, b.image_offsets);
+  ExpectArraysEqual("image_landmarks", a.image_landmarks, b.image_landmarks);
+  ExpectArraysEqual("local_mean_sqnorm", a.local_mean_sqnorm, b.local_mean_sqnorm);
+}
+
+}  // namespace sceneloc::test

@@ -1,0 +1,65 @@
+#include "common/training/cooccurrence.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace sceneloc {
+namespace {
+
+// Two landmarks: g0 in images 0,1,2 and g1 in images 1,2. Offsets g0 -> g1: (10, 0) in
+// image 1 and (0, 12) in image 2. So p(g1|g0) = 2/3, p(g0|g1) = 1, distances 10 and 12
+// (mean 11, variance 1 -> floored, d_max 1), angles 0 and pi/2 (circular mean pi/4,
+// d_max pi/4, variance (pi/4)^2).
+TEST(CooccurrenceTest, HandComputedStatistics) {
+  Map map;
+  map.image_names = {"a", "b", "c"};
+  map.local_mean.setZero(2, kDescriptorSize);
+  map.mean_x = {0, 5};
+  map.mean_y = {0, 6};
+  map.observation_offsets = {0, 3, 5};
+  map.observation_image = {0, 1, 2, 1, 2};
+  map.observation_x = {0, 0, 0, 10, 0};
+  map.observation_y = {0, 0, 0, 0, 12};
+  TrainOptions options;
+  options.distance_var_floor = 4.0;
+  options.angle_var_floor = 0.01;
+  BuildNeighbours(options, &map);
+  EXPECT_EQ(map.image_offsets, (std::vector<uint32_t>{0, 1, 3, 5}));
+  ASSERT_EQ(map.neighbour_offsets, (std::vector<uint32_t>{0, 1, 2}));
+  const Neighbour& n = map.neighbours[0];
+  EXPECT_EQ(n.landmark, 1u);
+  EXPECT_NEAR(n.cooccurrence, 2.0f / 3.0f, 1e-6);
+  EXPECT_NEAR(n.distance_mean, 11.0f, 1e-5);
+  EXPECT_NEAR(n.distance_var, 4.0f, 1e-6);  // raw variance 1 is below the floor
+  EXPECT_NEAR(n.distance_dmax, 1.0f, 1e-5);
+  EXPECT_NEAR(n.angle_mean, M_PI / 4, 1e-5);
+  EXPECT_NEAR(n.angle_dmax, M_PI / 4, 1e-5);
+  EXPECT_NEAR(n.angle_var, M_PI * M_PI / 16, 1e-5);
+  const Neighbour& back = map.neighbours[1];
+  EXPECT_EQ(back.landmark, 0u);
+  EXPECT_FLOAT_EQ(back.cooccurrence, 1.0f);
+  EXPECT_NEAR(back.angle_mean, -3 * M_PI / 4, 1e-5);  // the reverse direction
+}
+
+// Only the max_neighbours nearest (by mean position) are kept, nearest first.
+TEST(CooccurrenceTest, KeepsNearestNeighboursInOrder) {
+  Map map;
+  map.image_names = {"a"};
+  map.local_mean.setZero(4, kDescriptorSize);
+  map.mean_x = {0, 30, 10, 20};
+  map.mean_y = {0, 0, 0, 0};
+  map.observation_offsets = {0, 1, 2, 3, 4};
+  map.observation_image = {0, 0, 0, 0};
+  map.observation_x = map.mean_x;
+  map.observation_y = map.mean_y;
+  TrainOptions options;
+  options.max_neighbours = 2;
+  BuildNeighbours(options, &map);
+  ASSERT_EQ(map.neighbour_offsets[1], 2u);
+  EXPECT_EQ(map.neighbours[0].landmark, 2u);
+  EXPECT_EQ(map.neighbours[1].landmark, 3u);
+}
+
+}  // namespace
+}  // namespace sceneloc

@@ -1,0 +1,62 @@
+#include "common/util/thread_pool.h"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <thread>
+#include <vector>
+
+namespace sceneloc {
+namespace {
+
+// Every index in [0, n) is visited exactly once, for several pool and problem sizes.
+TEST(ThreadPoolTest, ParallelForVisitsEveryIndexOnce) {
+  for (int threads : {1, 2, 4}) {
+    ThreadPool pool(threads);
+    for (size_t n : {0u, 1u, 7u, 1000u}) {
+      std::vector<std::atomic<int>> hits(n);
+      pool.ParallelFor(n, 1, [&](size_t b, size_t e) {
+        for (size_t i = b; i < e; ++i) hits[i]++;
+      });
+      for (size_t i = 0; i < n; ++i) EXPECT_EQ(hits[i].load(), 1) << threads << " " << n;
+    }
+  }
+}
+
+// Concurrent ParallelFor calls from several threads, nested ones included, all complete.
+TEST(ThreadPoolTest, ConcurrentAndNestedCallsComplete) {
+  ThreadPool pool(2);
+  std::atomic<long> total{0};
+  std::vector<std::thread> callers;
+  for (int c = 0; c < 4; ++c) {
+    callers.emplace_back([&] {
+      pool.ParallelFor(50, 1, [&](size_t b, size_t e) {
+        for (size_t i = b; i < e; ++i) {
+          pool.ParallelFor(10, 1, [&](size_t b2, size_t e2) { total += long(e2 - b2); });
+        }
+      });
+    });
+  }
+  for (auto& t : callers) t.join();
+  EXPECT_EQ(total.load(), 4 * 50 * 10);
+}
+
+// With more than one thread, work really runs on more than one thread.
+TEST(ThreadPoolTest, UsesWorkerThreads) {
+  ThreadPool pool(2);
+  std::atomic<int> inside{0};
+  std::atomic<int> peak{0};
+  pool.ParallelFor(8, 1, [&](size_t, size_t) {
+    const int now = ++inside;
+    int expected = peak.load();
+    while (now > expected && !peak.compare_exchange_weak(expected, now)) {
+    }
+    // Hold the chunk until a second thread has entered (or a generous deadline passes).
+    for (int spin = 0; spin < 2000000 && peak.load() < 2; ++spin) std::this_thread::yield();
+    --inside;
+  });
+  EXPECT_EQ(peak.load(), 2);
+}
+
+}  // namespace
+}  // namespace sceneloc

@@ -1,0 +1,136 @@
+#include "tools/eval/evaluation.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "common/matching/baseline.h"
+#include "common/util/thread_pool.h"
+#include "common/util/timer.h"
+
+namespace sceneloc {
+
+StatusOr<std::map<std::string, std::string>> ReadGroundTruth(const std::string& csv_path) {
+  std::ifstream in(csv_path);
+  if (!in) return NotFound("ground-truth file '" + csv_path + "' cannot be opened");
+  std::map<std::string, std::string> truth;
+  std::string line;
+  int line_number = 0;
+  while (std::getline(in, line)) {
+    ++line_number;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty() || line[0] == '#') continue;
+    const size_t comma = line.find(',');
+    if (comma == std::string::npos || line.find(',', comma + 1) != std::string::npos) {
+      return InvalidArgument(csv_path + ":" + std::to_string(line_number) +
+                             ": expected 'query_file,tour_file'");
+    }
+    const std::string query = line.substr(0, comma), tour = line.substr(comma + 1);
+    if (line_number == 1 && query == "query_file") continue;  // header row
+    truth[query] = tour;
+  }
+  if (truth.empty()) return InvalidArgument("ground-truth file '" + csv_path + "' has no row");
+  return truth;
+}
+
+StatusOr<std::vector<int>> ResolveTruth(const std::vector<std::string>& query_names,
+                                        const std::vector<std::string>& tour_names,
+                                        const std::map<std::string, std::string>& ground_truth) {
+  std::map<std::string, int> index_of;
+  for (size_t i = 0; i < tour_names.size(); ++i) index_of[tour_names[i]] = static_cast<int>(i);
+  std::vector<int> truth;
+  for (const std::string& q : query_names) {
+    std::string tour_name = q;
+    if (!ground_truth.empty()) {
+      const auto it = ground_truth.find(q);
+      if (it == ground_truth.end()) return NotFound("query '" + q + "' has no ground-truth row");
+      tour_name = it->second;
+    }
+    const auto it = index_of.find(tour_name);
+    if (it == index_of.end()) {
+      return NotFound("query '" + q + "': its true location '" + tour_name +
+                      "' is not a tour image of this map");
+    }
+    truth.push_back(it->second);
+  }
+  return truth;
+}
+
+Percentiles ComputePercentiles(std::vector<double> values) {
+  Percentiles p;
+  if (values.empty()) return p;
+  std::sort(values.begin(), values.end());
+  // Nearest-rank percentiles: an observed value, never an interpolation.
+  const auto rank = [&](double q) {
+    const size_t r = static_cast<size_t>(std::ceil(q * static_cast<double>(values.size())));
+    return values[std::min(values.size() - 1, r == 0 ? 0 : r - 1)];
+  };
+  p.median = rank(0.5);
+  p.p90 = rank(0.9);
+  p.p99 = rank(0.99);
+  return p;
+}
+
+namespace {
+
+MethodSummary SummariseMethod(const std::vector<QueryOutcome>& outcomes, bool baseline) {
+  MethodSummary m;
+  std::vector<double> times;
+  for (const QueryOutcome& o : outcomes) {
+    const int predicted = baseline ? o.baseline_predicted : o.predicted;
+    for (int k = 0; k <= kMaxTolerance; ++k) {
+      if (predicted >= 0 && std::abs(predicted - o.truth) <= k) m.match_rate[k] += 1;
+    }
+    m.mean_confidence += baseline ? o.baseline_confidence : o.confidence;
+    times.push_back(baseline ? o.baseline_ms : o.match_ms);
+  }
+  const double n = std::max<double>(1, static_cast<double>(outcomes.size()));
+  for (double& r : m.match_rate) r /= n;
+  m.mean_confidence /= n;
+  m.match_ms = ComputePercentiles(times);
+  return m;
+}
+
+}  // namespace
+
+EvalSummary Summarise(const std::vector<QueryOutcome>& outcomes, bool with_baseline) {
+  EvalSummary s;
+  s.queries = outcomes.size();
+  s.ours = SummariseMethod(outcomes, false);
+  if (with_baseline) s.baseline = SummariseMethod(outcomes, true);
+  s.has_baseline = with_baseline;
+  std::vector<double> extract;
+  for (const QueryOutcome& o : outcomes) extract.push_back(o.extract_ms);
+  s.extract_ms = ComputePercentiles(extract);
+  return s;
+}
+
+Status RunQueries(const std::vector<FeatureSet>& queries, const Map& map,
+                  const MatchOptions& options, int threads,
+                  const std::vector<FeatureSet>* baseline_tour,
+                  std::vector<QueryOutcome>* outcomes) {
+  ThreadPool pool(threads);
+  for (size_t q = 0; q < queries.size(); ++q) {
+    Stopwatch watch;
+    SCENELOC_ASSIGN_OR_RETURN(const LocaliseResult r, Localise(queries[q], map, options, &pool));
+    QueryOutcome& o = (*outcomes)[q];
+    o.match_ms = watch.Milliseconds();
+    o.predicted = r.ranked.empty() || r.ranked[0].likelihood <= 0 ? -1 : r.ranked[0].index;
+    o.confidence = r.confidence;
+    o.descriptor_matches = r.descriptor_matches;
+  }
+  if (baseline_tour == nullptr) return Status::Ok();
+  SCENELOC_ASSIGN_OR_RETURN(auto baseline, VotingBaseline::Build(*baseline_tour, {}));
+  for (size_t q = 0; q < queries.size(); ++q) {
+    Stopwatch watch;
+    const BaselineResult r = baseline->Localise(queries[q]);
+    QueryOutcome& o = (*outcomes)[q];
+    o.baseline_ms = watch.Milliseconds();
+    o.baseline_predicted = r.best;
+    o.baseline_confidence = r.confidence;
+  }
+  return Status::Ok();
+}
+
+}  // namespace sceneloc
