@@ -3,6 +3,7 @@
 //                 [--baseline [--tour DIR]] [--threads N] [--config match.yaml] [--json OUT]
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <thread>
@@ -70,6 +71,20 @@ void PrintMethod(const char* name, const MethodSummary& m, int tolerance) {
       m.match_ms.median, m.match_ms.p90, tolerance, m.match_rate[tolerance]);
 }
 
+void PrintAnswers(const std::vector<sceneloc::QueryOutcome>& outcomes,
+                  const std::vector<std::string>& tour_names, int tolerance) {
+  for (const auto& o : outcomes) {
+    if (o.predicted < 0) {
+      std::printf("%-16s -> no answer (no landmark matched)\n", o.name.c_str());
+      continue;
+    }
+    const int off = o.predicted - o.truth;
+    std::printf("%-16s -> tour location %3d (%s), confidence %.2f  [truth %d, %s]\n",
+                o.name.c_str(), o.predicted, tour_names[o.predicted].c_str(), o.confidence, o.truth,
+                std::abs(off) <= tolerance ? "ok" : "MISS");
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -77,6 +92,7 @@ int main(int argc, char** argv) {
   std::string map_path, queries_dir, truth_csv, tour_dir, json_path, config_path;
   int tolerance = 2;
   bool with_baseline = false;
+  bool show = false;
   int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   app.add_option("--map", map_path, "map file")->required();
   app.add_option("--queries", queries_dir, "folder of query images")->required();
@@ -87,6 +103,7 @@ int main(int argc, char** argv) {
   app.add_option("--threads", threads, "matching threads")->check(CLI::Range(1, 256));
   app.add_option("--config", config_path, "matching settings (YAML), e.g. configs/match.yaml");
   app.add_option("--json", json_path, "write the full report as JSON");
+  app.add_flag("--show", show, "print every query's answer");
   CLI11_PARSE(app, argc, argv);
 
   sceneloc::MatchOptions options;
@@ -147,6 +164,7 @@ int main(int argc, char** argv) {
   if (!ran.ok()) return Fail(ran.message());
   const EvalSummary s = sceneloc::Summarise(outcomes, with_baseline);
 
+  if (show) PrintAnswers(outcomes, map->image_names, tolerance);
   std::printf("map %s: %d locations, %d landmarks, loaded in %.1f ms\n", map_path.c_str(),
               map->num_images(), map->num_landmarks(), load_ms);
   std::printf("%zu queries from %s, %d matching thread(s)\n", s.queries, queries_dir.c_str(),

@@ -34,6 +34,7 @@ std::vector<Field> TrainFields(TrainOptions* o) {
       {"tracking", "ransac_threshold_px", &o->ransac_threshold_px, 1e-3, 100},
       {"tracking", "ransac_confidence", &o->ransac_confidence, 0.5, 0.999999},
       {"tracking", "min_links_per_pair", &o->min_links_per_pair, 8, 100000},
+      {"tracking", "min_track_length", &o->min_track_length, 1, 1000},
       {"landmarks", "local_var_floor", &o->local_var_floor, 1e-9, 4},
       {"landmarks", "context_var_floor", &o->context_var_floor, 1e-9, 4},
       {"landmarks", "distance_var_floor", &o->distance_var_floor, 1e-6, 1e8},
@@ -52,6 +53,8 @@ std::vector<Field> MatchFields(MatchOptions* o) {
       {"matching", "use_neighbourhood", &o->use_neighbourhood, 0, 1},
       {"matching", "include_centre_term", &o->include_centre_term, 0, 1},
       {"matching", "max_neighbours", &o->max_neighbours, 0, 256},
+      {"matching", "distinctiveness", &o->distinctiveness, 0, 1},
+      {"matching", "size_exponent", &o->size_exponent, 0, 2},
       {"matching", "top_k", &o->top_k, 1, 1000},
   };
 }

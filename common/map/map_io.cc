@@ -185,6 +185,7 @@ void TransferOptions(Archive& a, Options& o) {
   a.Field("ransac_threshold_px", o.ransac_threshold_px);
   a.Field("ransac_confidence", o.ransac_confidence);
   a.Field("min_links_per_pair", o.min_links_per_pair);
+  a.Field("min_track_length", o.min_track_length);
   a.Field("local_var_floor", o.local_var_floor);
   a.Field("context_var_floor", o.context_var_floor);
   a.Field("distance_var_floor", o.distance_var_floor);

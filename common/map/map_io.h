@@ -18,7 +18,8 @@
 //                      f64 contrast_threshold, f64 edge_threshold, f64 sigma,
 //                      i32 max_image_side;
 //                    f64 track_distance_threshold, f64 ransac_threshold_px,
-//                    f64 ransac_confidence, i32 min_links_per_pair, f64 local_var_floor,
+//                    f64 ransac_confidence, i32 min_links_per_pair, i32 min_track_length,
+//                    f64 local_var_floor,
 //                    f64 context_var_floor, f64 distance_var_floor, f64 angle_var_floor,
 //                    f64 quality_s_min, f64 quality_fp_prior, i32 eta, f64 q_min,
 //                    i32 max_neighbours

@@ -51,6 +51,7 @@ Status TrainOptions::Validate() const {
   SCENELOC_RETURN_IF_ERROR(
       CheckOpenRange("ransac_confidence", ransac_confidence, 0.0, 1.0, /*hi_open=*/true));
   SCENELOC_RETURN_IF_ERROR(CheckAtLeast("min_links_per_pair", min_links_per_pair, 8));
+  SCENELOC_RETURN_IF_ERROR(CheckAtLeast("min_track_length", min_track_length, 1));
   SCENELOC_RETURN_IF_ERROR(CheckPositive("local_var_floor", local_var_floor));
   SCENELOC_RETURN_IF_ERROR(CheckPositive("context_var_floor", context_var_floor));
   SCENELOC_RETURN_IF_ERROR(CheckPositive("distance_var_floor", distance_var_floor));

@@ -21,6 +21,9 @@ struct TrainOptions {
   // Fewer verified links than this between two images and none of them is kept
   // (a fundamental matrix needs >= 8 points; fewer cannot be verified).
   int min_links_per_pair = 12;
+  // Tracks seen in fewer images than this make no landmark. The paper uses 2; 1 also
+  // turns every untracked feature into a single-view landmark whose spread is the floors.
+  int min_track_length = 2;
 
   // --- Landmark model (paper II-B) ---
   // sigma^2_min for the local descriptor: the variance never falls below this, so a

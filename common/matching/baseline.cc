@@ -1,5 +1,6 @@
 #include "common/matching/baseline.h"
 
+#include <cstdlib>
 #include <opencv2/flann.hpp>
 
 namespace sceneloc {
@@ -71,6 +72,9 @@ StatusOr<std::unique_ptr<VotingBaseline>> VotingBaseline::Build(const std::vecto
     }
   }
   try {
+    // FLANN's randomised kd-trees draw from the C library's rand(); a fixed seed makes the
+    // baseline's figures repeatable from run to run.
+    std::srand(0);
     return std::unique_ptr<VotingBaseline>(std::make_unique<FlannVotingBaseline>(
         std::move(descriptors), std::move(image_of), static_cast<int>(tour.size()), options));
   } catch (const cv::Exception& e) {

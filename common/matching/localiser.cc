@@ -14,6 +14,9 @@ Status MatchOptions::Validate() const {
   if (!(s_min > 0.0 && s_min <= 1.0)) return InvalidArgument("s_min must be in (0, 1]");
   if (max_neighbours < 0) return InvalidArgument("max_neighbours must be >= 0 (0 = all)");
   if (top_k < 1 || top_k > 1000) return InvalidArgument("top_k must be in [1, 1000]");
+  if (!(size_exponent >= 0.0 && size_exponent <= 2.0)) {
+    return InvalidArgument("size_exponent must be in [0, 2]");
+  }
   return Status::Ok();
 }
 
@@ -60,11 +63,19 @@ StatusOr<std::vector<float>> LocationLikelihoods(const FeatureSet& features, con
   stats->timings.neighbourhood_ms = watch.Milliseconds();
 
   watch.Reset();
+  // Each feature's total similarity mass, the denominator of p(g|f).
+  std::vector<float> mass;
+  if (options.distinctiveness) {
+    mass.assign(static_cast<size_t>(features.size()), 0.0f);
+    for (const DescriptorMatch& m : matches) mass[m.feature] += m.similarity;
+  }
   // max_f S(f, g) per landmark, then eq. 3.
   std::vector<float> best(static_cast<size_t>(map.num_landmarks()), 0.0f);
   for (size_t k = 0; k < matches.size(); ++k) {
-    const float s = matches[k].similarity * (options.use_neighbourhood ? neighbourhood[k] : 1.0f);
-    best[matches[k].landmark] = std::max(best[matches[k].landmark], s);
+    const DescriptorMatch& m = matches[k];
+    float s = m.similarity * (options.use_neighbourhood ? neighbourhood[k] : 1.0f);
+    if (options.distinctiveness) s *= m.similarity / mass[m.feature];
+    best[m.landmark] = std::max(best[m.landmark], s);
   }
   std::vector<float> likelihood(static_cast<size_t>(map.num_images()), 0.0f);
   for (int l = 0; l < map.num_images(); ++l) {
@@ -72,7 +83,8 @@ StatusOr<std::vector<float>> LocationLikelihoods(const FeatureSet& features, con
     if (begin == end) continue;
     double sum = 0;
     for (uint32_t k = begin; k < end; ++k) sum += best[map.image_landmarks[k]];
-    likelihood[static_cast<size_t>(l)] = static_cast<float>(sum / (end - begin));
+    likelihood[static_cast<size_t>(l)] =
+        static_cast<float>(sum / std::pow(static_cast<double>(end - begin), options.size_exponent));
   }
   stats->timings.likelihood_ms = watch.Milliseconds();
   return likelihood;

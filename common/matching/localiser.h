@@ -29,6 +29,13 @@ struct MatchOptions {
   bool include_centre_term = true;
   // Walk at most this many neighbours of each landmark (0 = all the map stores).
   int max_neighbours = 0;
+  // Weight each pair by p(g|f) = S_D(f,g) / sum_k S_D(f,g_k), the posterior of eq. 4:
+  // a feature resembling many landmarks spreads its vote thin (what the ratio test does
+  // for the baseline). false follows the paper's eq. 3.
+  bool distinctiveness = false;
+  // L(l) = sum_{g in G_l} max_f S(f,g) / |G_l|^alpha. alpha = 1 is eq. 3; smaller values
+  // stop images with few landmarks from winning on a handful of chance matches.
+  double size_exponent = 1.0;
   // How many ranked locations a result carries.
   int top_k = 5;
 

@@ -29,8 +29,8 @@ Status TourOptions::Validate() const {
   if (!(std::abs(forward_offset) <= 0.5)) {
     return InvalidArgument("forward_offset must be in [-0.5, 0.5]");
   }
-  if (!(std::abs(rotation_deg) <= 10.0)) {
-    return InvalidArgument("rotation_deg must be in [-10, 10]");
+  if (!(rotation_deg >= -5.0 && rotation_deg <= 10.0)) {
+    return InvalidArgument("rotation_deg must be in [-5, 10]");
   }
   if (!(brightness_gain > 0.0 && brightness_gain <= 4.0)) {
     return InvalidArgument("brightness_gain must be in (0, 4]");
@@ -74,12 +74,13 @@ constexpr int kRefTileWidth = 512;
 struct Plane {
   double distance;     // from the training route to the plane, metres
   double tile_metres;  // route length covered by one texture tile
-  double half_height;  // metres above and below the camera; enough for 4:3 images
+  double half_height;  // metres above and below the camera; enough for every view
+                       // TourOptions allows (4:3 images, rotation -5, shift -0.3)
   uint64_t stream;     // separates the planes' random streams
   bool has_pillars;    // a row of opaque pillars on a transparent plane, not a facade
 };
-constexpr Plane kFacade{kFacadeDistance, 8.0, 7.5, 1, false};
-constexpr Plane kPillars{kPillarDistance, 5.0, 4.8, 2, true};
+constexpr Plane kFacade{kFacadeDistance, 8.0, 9.5, 1, false};
+constexpr Plane kPillars{kPillarDistance, 5.0, 6.6, 2, true};
 constexpr uint64_t kSensorNoiseStream = 3;
 
 // ---------------------------------------------------------------------------------------
@@ -98,8 +99,13 @@ cv::RNG RngFor(uint32_t seed, uint64_t stream, int64_t tile, int layer) {
   return cv::RNG(Mix(state ^ static_cast<uint64_t>(layer)));
 }
 
+// Draws from `rng` are sequenced with braces or separate statements throughout: the
+// order of evaluation of function arguments is unspecified, and would let the scene
+// differ between compilers.
 cv::Scalar RandomColour(cv::RNG& rng) {
-  return cv::Scalar(rng.uniform(0, 256), rng.uniform(0, 256), rng.uniform(0, 256));
+  return cv::Scalar{static_cast<double>(rng.uniform(0, 256)),
+                    static_cast<double>(rng.uniform(0, 256)),
+                    static_cast<double>(rng.uniform(0, 256))};
 }
 
 // ---------------------------------------------------------------------------------------
@@ -117,8 +123,14 @@ struct Painter {
   int Len(double ref) const { return std::max(1, Off(ref)); }
   int Off(double ref) const { return static_cast<int>(std::lround(ref * scale)); }
   cv::Point At(double ref_x, double ref_y) const { return {origin_x + Off(ref_x), Off(ref_y)}; }
+  // How many of a kind of primitive to draw: `per_960_rows` for a region 960 reference
+  // pixels high, in proportion for others, so the density is the same on every plane.
+  int Count(int per_960_rows) const {
+    return static_cast<int>(std::lround(per_960_rows * rows_ref / 960));
+  }
   cv::Point RandomPoint(cv::RNG& rng) const {
-    return At(rng.uniform(0.0, width_ref), rng.uniform(0.0, rows_ref));
+    const double x = rng.uniform(0.0, width_ref);
+    return At(x, rng.uniform(0.0, rows_ref));
   }
 };
 
@@ -151,7 +163,7 @@ std::string RandomWord(cv::RNG& rng) {
 
 // Large panels, some with gradients: the facade's "architecture".
 void DrawPanels(cv::RNG& rng, const Painter& p) {
-  for (int i = 0; i < 14; ++i) {
+  for (int i = 0, n = p.Count(14); i < n; ++i) {
     const double w = rng.uniform(40.0, 240.0), h = rng.uniform(60.0, 400.0);
     const cv::Point centre = p.RandomPoint(rng);
     const cv::Rect rect(centre - cv::Point(p.Off(w / 2), p.Off(h / 2)),
@@ -183,7 +195,7 @@ void DrawShape(cv::RNG& rng, const cv::Point& c, const Painter& p) {
       cv::circle(*p.canvas, c, p.Len(rng.uniform(6.0, 40.0)), colour, cv::FILLED, cv::LINE_AA);
       break;
     case 1: {
-      const cv::Size axes(p.Len(rng.uniform(8.0, 50.0)), p.Len(rng.uniform(6.0, 30.0)));
+      const cv::Size axes{p.Len(rng.uniform(8.0, 50.0)), p.Len(rng.uniform(6.0, 30.0))};
       cv::ellipse(*p.canvas, c, axes, rng.uniform(0.0, 180.0), 0, 360, colour, cv::FILLED,
                   cv::LINE_AA);
       break;
@@ -192,14 +204,15 @@ void DrawShape(cv::RNG& rng, const cv::Point& c, const Painter& p) {
       DrawPolygon(rng, c, colour, p);
       break;
     case 3: {
-      const cv::Point half(p.Len(rng.uniform(5.0, 40.0)), p.Len(rng.uniform(5.0, 40.0)));
+      const cv::Point half{p.Len(rng.uniform(5.0, 40.0)), p.Len(rng.uniform(5.0, 40.0))};
       cv::rectangle(*p.canvas, c - half, c + half, colour, p.Len(rng.uniform(1.0, 4.0)),
                     cv::LINE_AA);
       break;
     }
-    default:
-      cv::circle(*p.canvas, c, p.Len(rng.uniform(8.0, 45.0)), colour, p.Len(rng.uniform(2.0, 5.0)),
-                 cv::LINE_AA);
+    default: {
+      const int radius = p.Len(rng.uniform(8.0, 45.0));
+      cv::circle(*p.canvas, c, radius, colour, p.Len(rng.uniform(2.0, 5.0)), cv::LINE_AA);
+    }
   }
 }
 
@@ -208,12 +221,12 @@ void DrawShapes(cv::RNG& rng, const Painter& p, int count) {
 }
 
 void DrawLines(cv::RNG& rng, const Painter& p) {
-  for (int i = 0; i < 20; ++i) {
+  for (int i = 0, n = p.Count(20); i < n; ++i) {
     const cv::Point from = p.RandomPoint(rng);
     const double length = rng.uniform(20.0, 120.0), angle = rng.uniform(0.0, CV_PI);
     const cv::Point delta(p.Off(length * std::cos(angle)), p.Off(length * std::sin(angle)));
-    cv::line(*p.canvas, from, from + delta, RandomColour(rng), p.Len(rng.uniform(1.0, 5.0)),
-             cv::LINE_AA);
+    const cv::Scalar colour = RandomColour(rng);
+    cv::line(*p.canvas, from, from + delta, colour, p.Len(rng.uniform(1.0, 5.0)), cv::LINE_AA);
   }
 }
 
@@ -241,9 +254,10 @@ void DrawText(cv::RNG& rng, const Painter& p, int count) {
 }
 
 void DrawSpeckles(cv::RNG& rng, const Painter& p) {
-  for (int i = 0; i < 90; ++i) {
-    cv::circle(*p.canvas, p.RandomPoint(rng), p.Len(rng.uniform(2.0, 5.0)), RandomColour(rng),
-               cv::FILLED, cv::LINE_AA);
+  for (int i = 0, n = p.Count(90); i < n; ++i) {
+    const cv::Point centre = p.RandomPoint(rng);
+    const int radius = p.Len(rng.uniform(2.0, 5.0));
+    cv::circle(*p.canvas, centre, radius, RandomColour(rng), cv::FILLED, cv::LINE_AA);
   }
 }
 
@@ -255,11 +269,11 @@ void DrawFacadeLayer(int layer, cv::RNG& rng, const Painter& p) {
     case 0:
       return DrawPanels(rng, p);
     case 1:
-      return DrawShapes(rng, p, 80);
+      return DrawShapes(rng, p, p.Count(80));
     case 2:
       return DrawLines(rng, p);
     case 3:
-      return DrawText(rng, p, 24);
+      return DrawText(rng, p, p.Count(24));
     default:
       return DrawSpeckles(rng, p);
   }
@@ -288,11 +302,11 @@ void DrawPillars(cv::RNG& rng, const Painter& p, cv::Mat* mask) {
     const cv::Point centre = p.RandomPoint(rng);
     const cv::Rect rect(centre.x - p.Off(w / 2), 0, p.Len(w), p.canvas->rows);
     cv::Mat pillar(rect.size(), CV_8UC3);
-    FillGradient(cv::Rect(cv::Point(), rect.size()), RandomColour(rng), RandomColour(rng), true,
-                 &pillar);
+    const cv::Scalar top = RandomColour(rng), bottom = RandomColour(rng);
+    FillGradient(cv::Rect(cv::Point(), rect.size()), top, bottom, true, &pillar);
     const Painter inner{&pillar, p.scale, 0, w, p.rows_ref};
-    DrawShapes(rng, inner, 30);
-    DrawText(rng, inner, 8);
+    DrawShapes(rng, inner, p.Count(30));
+    DrawText(rng, inner, p.Count(8));
     Soften(p.scale, &pillar);
     AddGrain(rng, &pillar);
     const cv::Rect visible = rect & cv::Rect(0, 0, p.canvas->cols, p.canvas->rows);

@@ -30,9 +30,10 @@ inline constexpr int kTestPass = 1;
 struct TourOptions {
   // Images per pass: locations 0 .. num_locations - 1 along the route. 1 .. 100000.
   int num_locations = 40;
-  // Size of every image in pixels. Landscape, at most 4:3 (image_height * 4 <=
-  // image_width * 3), 160 .. 4096 wide. The scene's texture is drawn at a resolution
-  // proportional to image_width, so larger images are not merely upsampled.
+  // Size of every image in pixels: 160 .. 4096 wide, at least 16 high, landscape and at
+  // most 4:3 (image_height * 4 <= image_width * 3), so the facade fills every view. The scene's
+  // texture is drawn at a resolution proportional to image_width, so larger images are not merely
+  // upsampled.
   int image_width = 640;
   int image_height = 360;
   // Seeds the scene and the sensor noise. The same options give byte-identical images;
@@ -50,7 +51,8 @@ struct TourOptions {
   // fraction of step. [-0.5, 0.5].
   double forward_offset = 0.2;
   // Test pass only: the camera is turned by this many degrees away from the direction of
-  // travel (towards facing the facade squarely) and pitched up by half as much. [-10, 10].
+  // travel (towards facing the facade squarely) and pitched up by half as much. [-5, 10]:
+  // turning further ahead would show the facade's top edge in 4:3 images.
   double rotation_deg = 2.0;
   // Test pass only: every pixel value v becomes brightness_gain * v + brightness_offset
   // before noise (another time of day). Gain (0, 4], offset [-255, 255].

@@ -1,7 +1,5 @@
 #include "common/training/quality.h"
 
-#include <mutex>
-
 #include "common/matching/descriptor_similarity.h"
 
 namespace sceneloc {
@@ -18,21 +16,25 @@ std::vector<std::vector<int>> FeatureOwners(const std::vector<Track>& tracks,
   return owner;
 }
 
-// Adds one image's contribution to the true- and false-positive masses.
-void AccumulateImage(const std::vector<DescriptorMatch>& matches, const std::vector<int>& owner,
-                     int num_features, std::vector<double>* tp, std::vector<double>* fp) {
+struct Contribution {
+  uint32_t landmark;
+  bool true_positive;
+  double mass;  // p(g|f) * S_D(f, g)
+};
+
+// One image's contributions to the true- and false-positive masses.
+std::vector<Contribution> ImageContributions(const std::vector<DescriptorMatch>& matches,
+                                             const std::vector<int>& owner, int num_features) {
   // Denominator of p(g|f): the total similarity mass of each feature.
   std::vector<double> mass(static_cast<size_t>(num_features), 0.0);
   for (const DescriptorMatch& m : matches) mass[m.feature] += m.similarity;
+  std::vector<Contribution> out;
+  out.reserve(matches.size());
   for (const DescriptorMatch& m : matches) {
     const double p = m.similarity / mass[m.feature];
-    const double contribution = p * m.similarity;
-    if (owner[m.feature] == static_cast<int>(m.landmark)) {
-      (*tp)[m.landmark] += contribution;
-    } else {
-      (*fp)[m.landmark] += contribution;
-    }
+    out.push_back({m.landmark, owner[m.feature] == static_cast<int>(m.landmark), p * m.similarity});
   }
+  return out;
 }
 
 }  // namespace
@@ -44,29 +46,31 @@ std::vector<float> ComputeQuality(const Map& candidates, const std::vector<Track
   const size_t num_landmarks = static_cast<size_t>(candidates.num_landmarks());
   const auto owner = FeatureOwners(tracks, tour);
   std::vector<double> tp(num_landmarks, 0.0), fp(num_landmarks, 0.0);
-  std::mutex mutex;  // guards tp, fp and the progress count
-  size_t done = 0;
-  // Images in parallel (each image's scoring runs inline in its worker): one image's
-  // product is too small to split well, a tour has hundreds of images.
-  auto run = [&](size_t begin, size_t end) {
-    for (size_t i = begin; i < end; ++i) {
-      const auto matches =
-          ComputeDescriptorMatches(tour[i], candidates, static_cast<float>(s_min), nullptr);
-      std::lock_guard<std::mutex> lock(mutex);
-      AccumulateImage(matches, owner[i], tour[i].size(), &tp, &fp);
-      ++done;
-    }
-  };
-  // Progress is reported from this thread between batches of images.
+  // Images are scored in parallel (each image's product runs inline in its worker: one
+  // image is too small to split well, a tour has hundreds) and summed in image order, so
+  // Q does not depend on the thread count. Progress is reported between batches.
   const size_t batch = pool != nullptr ? static_cast<size_t>(pool->num_threads()) * 4 : 8;
+  std::vector<std::vector<Contribution>> contributions(batch);
   for (size_t begin = 0; begin < tour.size(); begin += batch) {
     const size_t end = std::min(tour.size(), begin + batch);
+    auto run = [&](size_t b, size_t e) {
+      for (size_t i = begin + b; i < begin + e; ++i) {
+        const auto matches =
+            ComputeDescriptorMatches(tour[i], candidates, static_cast<float>(s_min), nullptr);
+        contributions[i - begin] = ImageContributions(matches, owner[i], tour[i].size());
+      }
+    };
     if (pool != nullptr) {
-      pool->ParallelFor(end - begin, 1, [&](size_t b, size_t e) { run(begin + b, begin + e); });
+      pool->ParallelFor(end - begin, 1, run);
     } else {
-      run(begin, end);
+      run(0, end - begin);
     }
-    if (progress) progress(done, tour.size());
+    for (size_t i = begin; i < end; ++i) {
+      for (const Contribution& c : contributions[i - begin]) {
+        (c.true_positive ? tp : fp)[c.landmark] += c.mass;
+      }
+    }
+    if (progress) progress(end, tour.size());
   }
   std::vector<float> quality(num_landmarks);
   for (size_t j = 0; j < num_landmarks; ++j) {

@@ -62,6 +62,30 @@ Map SubsetLandmarks(const Map& all, const std::vector<uint32_t>& keep) {
   return out;
 }
 
+// Drops tracks shorter than `min_length`; with min_length 1, adds every feature that no
+// track holds as a track of its own (a single-view landmark).
+std::vector<Track> ApplyMinTrackLength(std::vector<Track> tracks,
+                                       const std::vector<FeatureSet>& tour, int min_length) {
+  if (min_length == 1) {
+    std::vector<std::vector<bool>> tracked(tour.size());
+    for (size_t i = 0; i < tour.size(); ++i) tracked[i].assign(tour[i].keypoints.size(), false);
+    for (const Track& t : tracks) {
+      for (const TrackObservation& o : t) tracked[o.image][o.feature] = true;
+    }
+    for (size_t i = 0; i < tour.size(); ++i) {
+      for (size_t f = 0; f < tracked[i].size(); ++f) {
+        if (!tracked[i][f]) tracks.push_back({{uint32_t(i), uint32_t(f)}});
+      }
+    }
+    return tracks;
+  }
+  tracks.erase(
+      std::remove_if(tracks.begin(), tracks.end(),
+                     [&](const Track& t) { return static_cast<int>(t.size()) < min_length; }),
+      tracks.end());
+  return tracks;
+}
+
 void SummariseTracks(const std::vector<Track>& tracks, TrainSummary* s) {
   s->tracks = tracks.size();
   size_t total = 0;
@@ -138,7 +162,8 @@ StatusOr<TrainResult> TrainFromFeatures(const std::vector<FeatureSet>& tour,
 
   Stopwatch watch;
   TrackingStats tracking;
-  const std::vector<Track> tracks = BuildTracks(tour, options, &pool, &tracking);
+  const std::vector<Track> tracks = ApplyMinTrackLength(
+      BuildTracks(tour, options, &pool, &tracking), tour, options.min_track_length);
   s.candidate_links = tracking.candidate_links;
   s.verified_links = tracking.verified_links;
   SummariseTracks(tracks, &s);

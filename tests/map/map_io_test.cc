@@ -67,6 +67,7 @@ Map MakeMapWithDistinctOptions() {
   o.ransac_threshold_px = 2.25;
   o.ransac_confidence = 0.995;
   o.min_links_per_pair = 13;
+  o.min_track_length = 3;
   o.local_var_floor = 0.021;
   o.context_var_floor = 0.0021;
   o.distance_var_floor = 101.0;

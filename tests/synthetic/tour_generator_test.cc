@@ -113,6 +113,31 @@ TEST(TourGeneratorTest, ImagesDecodeToTheRequestedSize) {
   }
 }
 
+// The facade fills every view the options allow, even 4:3 images at the extremes of the
+// test-pass geometry: no pixel shows the renderer's grey outside the textured world.
+TEST(TourGeneratorTest, FacadeFillsEveryAllowedView) {
+  struct Extreme {
+    double lateral_shift, rotation_deg;
+  };
+  for (const Extreme extreme : {Extreme{-0.3, -5}, Extreme{-0.3, 10}, Extreme{0.3, -5}}) {
+    TourOptions options = SmallTour(2);
+    options.image_width = 640;
+    options.image_height = 480;
+    options.lateral_shift = extreme.lateral_shift;
+    options.rotation_deg = extreme.rotation_deg;
+    options.brightness_gain = 1;
+    options.brightness_offset = 0;
+    options.noise_stddev = 0;
+    for (const std::string& jpeg : Render(options, kTestPass)) {
+      const cv::Mat image = Decode(jpeg);
+      cv::Mat grey;
+      cv::inRange(image, cv::Scalar::all(128), cv::Scalar::all(128), grey);
+      EXPECT_LT(cv::countNonZero(grey), image.total() / 1000)
+          << "lateral_shift " << extreme.lateral_shift << ", rotation " << extreme.rotation_deg;
+    }
+  }
+}
+
 // The test pass shows each location from elsewhere and in other light, not the training
 // image plus noise (which would make the localisation check below meaningless).
 TEST(TourGeneratorTest, TestPassSeesEachLocationDifferently) {
@@ -169,6 +194,7 @@ TEST(TourGeneratorTest, InvalidOptionsAreRejected) {
       [](TourOptions* o) { o->lateral_shift = 0.5; },
       [](TourOptions* o) { o->forward_offset = -0.7; },
       [](TourOptions* o) { o->rotation_deg = 45; },
+      [](TourOptions* o) { o->rotation_deg = -6; },
       [](TourOptions* o) { o->brightness_gain = 0; },
       [](TourOptions* o) { o->brightness_offset = 300; },
       [](TourOptions* o) { o->noise_stddev = -1; },
@@ -226,30 +252,30 @@ class TourGeneratorSiftTest : public ::testing::Test {
  protected:
   static constexpr int kLocations = 20;
 
-  // Rendering and SIFT are the slow part: done once per process, shared by the tests.
-  static void SetUpTestSuite() {
-    const TourOptions options = SmallTour(kLocations);
-    training_ = new SiftPass(ExtractSift(Render(options, kTrainingPass)));
-    test_ = new SiftPass(ExtractSift(Render(options, kTestPass)));
-  }
-  static void TearDownTestSuite() {
-    delete training_;
-    delete test_;
-  }
+  // Rendering and SIFT are the slow part: each pass is done once per process, when a
+  // test first needs it (ctest runs each test in a process of its own).
+  static const SiftPass& Training() { return Pass(kTrainingPass); }
+  static const SiftPass& Test() { return Pass(kTestPass); }
 
-  static SiftPass* training_;
-  static SiftPass* test_;
+ private:
+  static const SiftPass& Pass(int pass) {
+    static SiftPass passes[2];
+    static bool done[2] = {false, false};
+    if (!done[pass]) {
+      passes[pass] = ExtractSift(Render(SmallTour(kLocations), pass));
+      done[pass] = true;
+    }
+    return passes[pass];
+  }
 };
-
-SiftPass* TourGeneratorSiftTest::training_ = nullptr;
-SiftPass* TourGeneratorSiftTest::test_ = nullptr;
 
 // Every frame of both passes has plenty of SIFT keypoints at 640x360.
 TEST_F(TourGeneratorSiftTest, EveryFrameHasAtLeast300Keypoints) {
-  for (const SiftPass* pass : {training_, test_}) {
-    ASSERT_EQ(pass->keypoints.size(), static_cast<size_t>(kLocations));
+  for (int pass : {kTrainingPass, kTestPass}) {
+    const SiftPass& sift = pass == kTrainingPass ? Training() : Test();
+    ASSERT_EQ(sift.keypoints.size(), static_cast<size_t>(kLocations));
     for (int i = 0; i < kLocations; ++i) {
-      EXPECT_GE(pass->keypoints[i].size(), 300u) << (pass == test_ ? "test " : "training ") << i;
+      EXPECT_GE(sift.keypoints[i].size(), 300u) << "pass " << pass << ", location " << i;
     }
   }
 }
@@ -257,7 +283,7 @@ TEST_F(TourGeneratorSiftTest, EveryFrameHasAtLeast300Keypoints) {
 // Consecutive training frames share enough features for the trainer to track them.
 TEST_F(TourGeneratorSiftTest, ConsecutiveTrainingFramesShareAtLeast100Matches) {
   for (int i = 0; i + 1 < kLocations; ++i) {
-    EXPECT_GE(RatioTestMatches(training_->descriptors[i], training_->descriptors[i + 1]), 100)
+    EXPECT_GE(RatioTestMatches(Training().descriptors[i], Training().descriptors[i + 1]), 100)
         << "training " << i << " -> " << i + 1;
   }
 }
@@ -270,7 +296,7 @@ TEST_F(TourGeneratorSiftTest, TestFramesMatchTheirOwnLocationBest) {
   for (int i = 0; i < kLocations; ++i) {
     std::vector<int> matches(kLocations);
     for (int j = 0; j < kLocations; ++j) {
-      matches[j] = RatioTestMatches(test_->descriptors[i], training_->descriptors[j]);
+      matches[j] = RatioTestMatches(Test().descriptors[i], Training().descriptors[j]);
     }
     const int best =
         static_cast<int>(std::max_element(matches.begin(), matches.end()) - matches.begin());

@@ -1,0 +1,146 @@
+// sceneloc-train and sceneloc-eval as a user runs them: every bad input gets one clear
+// error line naming the file and the problem, a non-zero exit, and no map file.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "common/map/map_io.h"
+#include "common/synthetic/tour_generator.h"
+
+namespace sceneloc {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct RunResult {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr together
+};
+
+RunResult RunCommand(const std::string& command) {
+  RunResult r;
+  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
+  if (pipe == nullptr) return r;
+  std::array<char, 4096> buffer;
+  size_t n;
+  while ((n = fread(buffer.data(), 1, buffer.size(), pipe)) > 0) r.output.append(buffer.data(), n);
+  const int status = pclose(pipe);
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+class CliTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = fs::path(::testing::TempDir()) / ("sceneloc_cli_" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    TourOptions tour;
+    tour.num_locations = 8;
+    ASSERT_TRUE(WriteTour(tour, (dir_ / "tour").string(), kTrainingPass).ok());
+    ASSERT_TRUE(WriteTour(tour, (dir_ / "test").string(), kTestPass).ok());
+  }
+  static void TearDownTestSuite() { fs::remove_all(dir_); }
+
+  static std::string Train(const std::string& tour, const std::string& out,
+                           const std::string& extra = "") {
+    return std::string(SCENELOC_TRAIN_BIN) + " --tour '" + tour + "' --out '" + out + "' " + extra;
+  }
+  // Expects a failed run with exactly one line of output mentioning every `needle`.
+  static void ExpectOneLineError(const RunResult& r, const std::vector<std::string>& needles) {
+    EXPECT_NE(r.exit_code, 0);
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+    for (const auto& n : needles) EXPECT_NE(r.output.find(n), std::string::npos) << r.output;
+  }
+
+  static fs::path dir_;
+};
+
+fs::path CliTest::dir_;
+
+// The happy path: train writes a loadable map and eval prints match rates for it.
+TEST_F(CliTest, TrainThenEval) {
+  const std::string map = (dir_ / "ok.scnl").string();
+  RunResult r = RunCommand(Train((dir_ / "tour").string(), map,
+                                 "--config " SCENELOC_CONFIGS_DIR "/train.yaml --threads 2"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("landmarks kept"), std::string::npos);
+  ASSERT_TRUE(LoadMap(map).ok());
+  const std::string json = (dir_ / "eval.json").string();
+  r = RunCommand(std::string(SCENELOC_EVAL_BIN) + " --map '" + map + "' --queries '" +
+                 (dir_ / "test").string() + "' --baseline --json '" + json + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("baseline"), std::string::npos);
+  std::ifstream in(json);
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  for (const char* key : {"\"match_rate\"", "\"mean_confidence\"", "\"timing_ms\"", "\"extract\"",
+                          "\"p90\"", "\"baseline\"", "\"per_query\""}) {
+    EXPECT_NE(text.find(key), std::string::npos) << key;
+  }
+}
+
+// A missing tour folder, an empty one and a one-image tour.
+TEST_F(CliTest, BadTourFolders) {
+  const std::string out = (dir_ / "never.scnl").string();
+  ExpectOneLineError(RunCommand(Train((dir_ / "nope").string(), out)), {"nope", "does not exist"});
+  fs::create_directories(dir_ / "empty");
+  ExpectOneLineError(RunCommand(Train((dir_ / "empty").string(), out)), {"empty", "no image"});
+  fs::create_directories(dir_ / "one");
+  fs::copy_file(dir_ / "tour" / "Image000.jpg", dir_ / "one" / "Image000.jpg");
+  ExpectOneLineError(RunCommand(Train((dir_ / "one").string(), out)), {"one", "at least 2"});
+  EXPECT_FALSE(fs::exists(out));
+}
+
+// A file that is not an image, and a truncated JPEG, named in the error.
+TEST_F(CliTest, UnreadableImages) {
+  const std::string out = (dir_ / "never.scnl").string();
+  fs::create_directories(dir_ / "notes");
+  fs::copy(dir_ / "tour", dir_ / "notes", fs::copy_options::recursive);
+  std::ofstream(dir_ / "notes" / "readme.txt") << "not an image\n";
+  ExpectOneLineError(RunCommand(Train((dir_ / "notes").string(), out)),
+                     {"readme.txt", "not a readable image"});
+  fs::create_directories(dir_ / "cut");
+  fs::copy(dir_ / "tour", dir_ / "cut", fs::copy_options::recursive);
+  fs::resize_file(dir_ / "cut" / "Image003.jpg", 200);
+  const RunResult r = RunCommand(Train((dir_ / "cut").string(), out));
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_FALSE(fs::exists(out));
+}
+
+// Settings files: an unknown key and an out-of-range value, named with the file.
+TEST_F(CliTest, BadSettingsFiles) {
+  const std::string out = (dir_ / "never.scnl").string();
+  const std::string bad_key = (dir_ / "bad_key.yaml").string();
+  std::ofstream(bad_key) << "selection:\n  etaa: 3\n";
+  ExpectOneLineError(RunCommand(Train((dir_ / "tour").string(), out, "--config '" + bad_key + "'")),
+                     {"bad_key.yaml", "unknown key 'selection.etaa'"});
+  const std::string bad_value = (dir_ / "bad_value.yaml").string();
+  std::ofstream(bad_value) << "tracking:\n  distance_threshold: -1\n";
+  ExpectOneLineError(
+      RunCommand(Train((dir_ / "tour").string(), out, "--config '" + bad_value + "'")),
+      {"bad_value.yaml", "tracking.distance_threshold", "out of range"});
+  EXPECT_FALSE(fs::exists(out));
+}
+
+// sceneloc-eval on a map of another format version and on a non-map file.
+TEST_F(CliTest, EvalRefusesBadMaps) {
+  const std::string map = (dir_ / "v2.scnl").string();
+  ASSERT_EQ(RunCommand(Train((dir_ / "tour").string(), map)).exit_code, 0);
+  {
+    std::fstream f(map, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(8);
+    const uint32_t version = 2;
+    f.write(reinterpret_cast<const char*>(&version), 4);
+  }
+  const std::string eval =
+      std::string(SCENELOC_EVAL_BIN) + " --queries '" + (dir_ / "test").string() + "' --map ";
+  ExpectOneLineError(RunCommand(eval + "'" + map + "'"), {"v2.scnl", "format version 2"});
+  ExpectOneLineError(RunCommand(eval + "'" + (dir_ / "tour" / "Image000.jpg").string() + "'"),
+                     {"Image000.jpg", "not a sceneloc map"});
+}
+
+}  // namespace
+}  // namespace sceneloc

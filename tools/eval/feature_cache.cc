@@ -1,0 +1,112 @@
+#include "tools/eval/feature_cache.h"
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <sstream>
+
+#include "common/training/trainer.h"
+#include "common/util/image_folder.h"
+
+namespace sceneloc {
+namespace {
+
+constexpr uint32_t kCacheVersion = 1;
+
+// Identifies a cache entry: the folder, its files (names and sizes) and the options.
+std::string CacheKey(const std::string& dir, const std::vector<std::string>& paths,
+                     const ExtractorOptions& o) {
+  std::ostringstream key;
+  key << std::filesystem::absolute(dir).string() << kCacheVersion << o.max_features << ' '
+      << o.image_scale << ' ' << o.context_scale << ' ' << o.contrast_threshold << ' '
+      << o.edge_threshold << ' ' << o.sigma;
+  std::error_code ec;
+  for (const auto& p : paths) key << p << std::filesystem::file_size(p, ec);
+  std::ostringstream name;
+  name << std::hex << std::hash<std::string>{}(key.str()) << ".features";
+  return name.str();
+}
+
+template <typename T>
+void Put(std::ofstream& out, const T& v) {
+  out.write(reinterpret_cast<const char*>(&v), sizeof(T));
+}
+template <typename T>
+bool Get(std::ifstream& in, T* v) {
+  return static_cast<bool>(in.read(reinterpret_cast<char*>(v), sizeof(T)));
+}
+
+void Write(const std::string& path, const std::vector<FeatureSet>& sets) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary);
+    Put(out, kCacheVersion);
+    Put(out, static_cast<uint64_t>(sets.size()));
+    for (const FeatureSet& f : sets) {
+      Put(out, f.image_width);
+      Put(out, f.image_height);
+      Put(out, static_cast<uint64_t>(f.keypoints.size()));
+      out.write(reinterpret_cast<const char*>(f.keypoints.data()),
+                static_cast<std::streamsize>(f.keypoints.size() * sizeof(Keypoint)));
+      out.write(reinterpret_cast<const char*>(f.local.data()),
+                static_cast<std::streamsize>(f.local.size() * sizeof(float)));
+      out.write(reinterpret_cast<const char*>(f.context.data()),
+                static_cast<std::streamsize>(f.context.size() * sizeof(float)));
+    }
+    if (!out) return;
+  }
+  std::filesystem::rename(tmp, path);
+}
+
+bool Read(const std::string& path, size_t expected, std::vector<FeatureSet>* sets) {
+  std::ifstream in(path, std::ios::binary);
+  uint32_t version = 0;
+  uint64_t count = 0;
+  if (!Get(in, &version) || version != kCacheVersion || !Get(in, &count) || count != expected) {
+    return false;
+  }
+  sets->resize(count);
+  for (FeatureSet& f : *sets) {
+    uint64_t n = 0;
+    if (!Get(in, &f.image_width) || !Get(in, &f.image_height) || !Get(in, &n) || n > 1000000) {
+      return false;
+    }
+    f.keypoints.resize(n);
+    f.local.resize(static_cast<Eigen::Index>(n), kDescriptorSize);
+    f.context.resize(static_cast<Eigen::Index>(n), kDescriptorSize);
+    in.read(reinterpret_cast<char*>(f.keypoints.data()),
+            static_cast<std::streamsize>(n * sizeof(Keypoint)));
+    in.read(reinterpret_cast<char*>(f.local.data()),
+            static_cast<std::streamsize>(f.local.size() * sizeof(float)));
+    in.read(reinterpret_cast<char*>(f.context.data()),
+            static_cast<std::streamsize>(f.context.size() * sizeof(float)));
+    if (!in) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+StatusOr<std::vector<FeatureSet>> ExtractFolderCached(const std::string& dir,
+                                                      const ExtractorOptions& options,
+                                                      const std::string& cache_dir, int threads,
+                                                      std::vector<std::string>* names) {
+  SCENELOC_ASSIGN_OR_RETURN(const std::vector<std::string> paths, ListImageFiles(dir));
+  names->clear();
+  for (const auto& p : paths) names->push_back(FileName(p));
+  std::string entry;
+  if (!cache_dir.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(cache_dir, ec);
+    entry = cache_dir + "/" + CacheKey(dir, paths, options);
+    std::vector<FeatureSet> cached;
+    if (Read(entry, paths.size(), &cached)) return cached;
+  }
+  SCENELOC_ASSIGN_OR_RETURN(std::vector<FeatureSet> sets,
+                            ExtractFolder(paths, options, threads, nullptr));
+  if (!entry.empty()) Write(entry, sets);
+  return sets;
+}
+
+}  // namespace sceneloc

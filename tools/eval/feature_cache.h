@@ -1,0 +1,24 @@
+// A disk cache of extracted features for the experiment runner: extraction dominates a
+// sweep's time, and every variant of a sweep reads the same features. Not a product file
+// format (the wire format for feature sets is the server's Protobuf message): a cache
+// entry that fails any check is treated as a miss and rebuilt.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "common/features/extractor.h"
+#include "common/features/feature_set.h"
+#include "common/util/status.h"
+
+namespace sceneloc {
+
+// Extracts the features of the images in `dir` with `options`, or reads them from
+// `cache_dir` when an entry made from the same folder listing and options exists. An
+// empty cache_dir disables caching.
+StatusOr<std::vector<FeatureSet>> ExtractFolderCached(const std::string& dir,
+                                                      const ExtractorOptions& options,
+                                                      const std::string& cache_dir, int threads,
+                                                      std::vector<std::string>* names);
+
+}  // namespace sceneloc

@@ -1,0 +1,245 @@
+// sceneloc-experiments: the paper's experiments and our ablations on a real tour.
+//
+//   sceneloc-experiments --tour DIR --queries DIR --out DIR --experiment NAME [options]
+//
+// Experiments (each writes OUT/NAME.csv, one row per run, ours and the baseline side by
+// side on the same features):
+//   single    one run with the given settings
+//   eta       match rate, confidence and matching time against eta (paper Fig. 5)
+//   size      eta_opt and its match rate against environment size (paper Fig. 6): the
+//             first N tour images, the queries whose true location is among them
+//   ablation  the paper's literal method and each of our departures, one at a time
+// scripts/plot_experiments.py turns the CSVs into PNG plots.
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include "common/config/config.h"
+#include "common/training/trainer.h"
+#include "common/util/timer.h"
+#include "tools/eval/evaluation.h"
+#include "tools/eval/feature_cache.h"
+
+namespace sceneloc {
+namespace {
+
+struct Settings {
+  std::string name;
+  TrainOptions train;
+  MatchOptions match;
+};
+
+struct Data {
+  std::vector<FeatureSet> tour, queries;
+  std::vector<std::string> tour_names, query_names;
+  std::vector<int> truth;
+};
+
+struct Context {
+  std::string tour_dir, queries_dir, cache_dir;
+  int threads = 2;
+};
+
+StatusOr<Data> LoadData(const Context& c, const ExtractorOptions& extractor) {
+  Data d;
+  SCENELOC_ASSIGN_OR_RETURN(
+      d.tour, ExtractFolderCached(c.tour_dir, extractor, c.cache_dir, c.threads, &d.tour_names));
+  SCENELOC_ASSIGN_OR_RETURN(d.queries, ExtractFolderCached(c.queries_dir, extractor, c.cache_dir,
+                                                           c.threads, &d.query_names));
+  SCENELOC_ASSIGN_OR_RETURN(d.truth, ResolveTruth(d.query_names, d.tour_names, {}));
+  return d;
+}
+
+// The first `locations` tour images and the queries whose truth lies among them.
+Data Prefix(const Data& all, int locations) {
+  Data d;
+  d.tour.assign(all.tour.begin(), all.tour.begin() + locations);
+  d.tour_names.assign(all.tour_names.begin(), all.tour_names.begin() + locations);
+  for (size_t q = 0; q < all.queries.size(); ++q) {
+    if (all.truth[q] >= locations) continue;
+    d.queries.push_back(all.queries[q]);
+    d.query_names.push_back(all.query_names[q]);
+    d.truth.push_back(all.truth[q]);
+  }
+  return d;
+}
+
+struct Row {
+  std::string experiment, variant;
+  int locations = 0, eta = 0, landmarks = 0;
+  double train_s = 0;
+  EvalSummary summary;
+};
+
+StatusOr<Row> Run(const std::string& experiment, const Settings& s, const Data& d, int threads) {
+  Stopwatch watch;
+  SCENELOC_ASSIGN_OR_RETURN(TrainResult trained,
+                            TrainFromFeatures(d.tour, d.tour_names, s.train, threads, nullptr));
+  Row row{experiment,
+          s.name,
+          static_cast<int>(d.tour.size()),
+          s.train.eta,
+          trained.map.num_landmarks(),
+          watch.Seconds(),
+          {}};
+  std::vector<QueryOutcome> outcomes(d.queries.size());
+  for (size_t q = 0; q < outcomes.size(); ++q) outcomes[q].truth = d.truth[q];
+  SCENELOC_RETURN_IF_ERROR(
+      RunQueries(d.queries, trained.map, s.match, threads, &d.tour, &outcomes));
+  row.summary = Summarise(outcomes, true);
+  return row;
+}
+
+class CsvWriter {
+ public:
+  explicit CsvWriter(const std::string& path) : out_(path) {
+    out_ << "experiment,variant,locations,eta,landmarks,train_s,rate0,rate1,rate2,rate3,"
+            "confidence,match_ms_median,match_ms_p90,baseline_rate0,baseline_rate1,"
+            "baseline_rate2,baseline_rate3,baseline_confidence,baseline_ms_median\n";
+  }
+  bool ok() const { return static_cast<bool>(out_); }
+  void Add(const Row& r) {
+    const MethodSummary& o = r.summary.ours;
+    const MethodSummary& b = r.summary.baseline;
+    char line[512];
+    std::snprintf(line, sizeof(line),
+                  "%s,%s,%d,%d,%d,%.1f,%.3f,%.3f,%.3f,%.3f,%.3f,%.2f,%.2f,%.3f,%.3f,%.3f,%.3f,"
+                  "%.3f,%.2f\n",
+                  r.experiment.c_str(), r.variant.c_str(), r.locations, r.eta, r.landmarks,
+                  r.train_s, o.match_rate[0], o.match_rate[1], o.match_rate[2], o.match_rate[3],
+                  o.mean_confidence, o.match_ms.median, o.match_ms.p90, b.match_rate[0],
+                  b.match_rate[1], b.match_rate[2], b.match_rate[3], b.mean_confidence,
+                  b.match_ms.median);
+    out_ << line << std::flush;
+    std::printf(
+        "%-10s %-28s N=%3d eta=%3d L=%6d  ±0 %.3f ±1 %.3f ±2 %.3f ±3 %.3f conf %.3f "
+        "%.1f ms | baseline ±2 %.3f ±3 %.3f\n",
+        r.experiment.c_str(), r.variant.c_str(), r.locations, r.eta, r.landmarks, o.match_rate[0],
+        o.match_rate[1], o.match_rate[2], o.match_rate[3], o.mean_confidence, o.match_ms.median,
+        b.match_rate[2], b.match_rate[3]);
+    std::fflush(stdout);
+  }
+
+ private:
+  std::ofstream out_;
+};
+
+}  // namespace
+}  // namespace sceneloc
+
+namespace sl = sceneloc;
+
+namespace {
+
+int Fail(const std::string& m) {
+  std::fprintf(stderr, "sceneloc-experiments: %s\n", m.c_str());
+  return 1;
+}
+
+// The variants of the ablation: the paper as printed, then one change at a time.
+std::vector<sl::Settings> AblationVariants(const sl::Settings& base) {
+  std::vector<sl::Settings> v;
+  sl::Settings s = base;
+  s.name = "default";
+  v.push_back(s);
+  s = base;
+  s.name = "s_d_only";
+  s.match.use_neighbourhood = false;
+  v.push_back(s);
+  s = base;
+  s.name = "no_centre_term";
+  s.match.include_centre_term = !base.match.include_centre_term;
+  v.push_back(s);
+  for (double f : {0.5, 2.0, 4.0}) {
+    s = base;
+    s.name = "var_floors_x" + std::to_string(f).substr(0, 3);
+    s.train.local_var_floor *= f;
+    s.train.context_var_floor *= f;
+    v.push_back(s);
+  }
+  for (int eta : {20, 50, 100}) {
+    s = base;
+    s.name = "eta_" + std::to_string(eta);
+    s.train.eta = eta;
+    v.push_back(s);
+  }
+  return v;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"sceneloc-experiments: eta sweep, environment size and ablations on real data"};
+  sl::Context c;
+  std::string out_dir, experiment = "single", train_config, match_config, train_yaml, match_yaml;
+  std::string variant_name = "default";
+  std::vector<int> etas = {0, 10, 20, 30, 50, 75, 100, 150};
+  std::vector<int> sizes = {25, 50, 100, 150, 200};
+  c.threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  app.add_option("--tour", c.tour_dir, "tour folder")->required();
+  app.add_option("--queries", c.queries_dir, "query folder (truth: same file name)")->required();
+  app.add_option("--out", out_dir, "folder for the CSV files")->required();
+  app.add_option("--experiment", experiment, "single | eta | size | ablation")
+      ->check(CLI::IsMember({"single", "eta", "size", "ablation"}));
+  app.add_option("--cache", c.cache_dir, "feature cache folder (default OUT/cache)");
+  app.add_option("--train-config", train_config, "training settings file");
+  app.add_option("--match-config", match_config, "matching settings file");
+  app.add_option("--train-yaml", train_yaml, "training settings as YAML text, applied last");
+  app.add_option("--match-yaml", match_yaml, "matching settings as YAML text, applied last");
+  app.add_option("--name", variant_name, "variant name for the single experiment");
+  app.add_option("--etas", etas, "eta values for the eta and size experiments")->delimiter(',');
+  app.add_option("--sizes", sizes, "environment sizes for the size experiment")->delimiter(',');
+  app.add_option("--threads", c.threads, "threads")->check(CLI::Range(1, 256));
+  CLI11_PARSE(app, argc, argv);
+  if (c.cache_dir.empty()) c.cache_dir = out_dir + "/cache";
+  std::filesystem::create_directories(out_dir);
+
+  sl::Settings base;
+  base.name = variant_name;
+  sl::Status s;
+  if (!train_config.empty() && !(s = sl::LoadTrainOptions(train_config, &base.train)).ok()) {
+    return Fail(s.message());
+  }
+  if (!match_config.empty() && !(s = sl::LoadMatchOptions(match_config, &base.match)).ok()) {
+    return Fail(s.message());
+  }
+  if (!(s = sl::ParseTrainOptions(train_yaml, "--train-yaml", &base.train)).ok()) {
+    return Fail(s.message());
+  }
+  if (!(s = sl::ParseMatchOptions(match_yaml, "--match-yaml", &base.match)).ok()) {
+    return Fail(s.message());
+  }
+  auto data = sl::LoadData(c, base.train.extractor);
+  if (!data.ok()) return Fail(data.status().message());
+  sl::CsvWriter csv(out_dir + "/" + experiment + ".csv");
+  if (!csv.ok()) return Fail("cannot write to " + out_dir);
+
+  auto run = [&](const sl::Settings& settings, const sl::Data& d) {
+    auto row = sl::Run(experiment, settings, d, c.threads);
+    if (!row.ok()) return Fail(settings.name + ": " + row.status().message());
+    csv.Add(*row);
+    return 0;
+  };
+  std::vector<std::pair<sl::Settings, int>> plan;  // settings, locations
+  const int all = static_cast<int>(data->tour.size());
+  if (experiment == "single") plan.push_back({base, all});
+  if (experiment == "ablation") {
+    for (const auto& v : AblationVariants(base)) plan.push_back({v, all});
+  }
+  if (experiment == "eta" || experiment == "size") {
+    for (int n : experiment == "eta" ? std::vector<int>{all} : sizes) {
+      for (int eta : etas) {
+        sl::Settings v = base;
+        v.train.eta = eta;
+        v.name = "eta_" + std::to_string(eta);
+        plan.push_back({v, std::min(n, all)});
+      }
+    }
+  }
+  for (const auto& [settings, n] : plan) {
+    if (const int rc = run(settings, n == all ? *data : sl::Prefix(*data, n)); rc != 0) return rc;
+  }
+  return 0;
+}
