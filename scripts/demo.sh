@@ -11,7 +11,7 @@ bash "$root/scripts/build.sh"
 bin="$root/build/tools"
 mkdir -p "$work"
 echo "== 1. generating a tour of 40 locations and a test pass in $work"
-"$bin/sceneloc-gentour" --out "$work" --locations 40
+"$bin/sceneloc-gentour" --out "$work" --locations 40 --width 960 --height 540
 echo "== 2. training a map"
 "$bin/sceneloc-train" --tour "$work/tour" --out "$work/demo.scnl" --config "$root/configs/train.yaml"
 echo "== 3. localising the test pass"

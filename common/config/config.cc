@@ -55,6 +55,8 @@ std::vector<Field> MatchFields(MatchOptions* o) {
       {"matching", "max_neighbours", &o->max_neighbours, 0, 256},
       {"matching", "distinctiveness", &o->distinctiveness, 0, 1},
       {"matching", "size_exponent", &o->size_exponent, 0, 2},
+      {"matching", "verify_top", &o->verify_top, 0, 1000},
+      {"matching", "verify_ransac_px", &o->verify_ransac_px, 0.01, 100},
       {"matching", "top_k", &o->top_k, 1, 1000},
   };
 }

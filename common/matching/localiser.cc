@@ -6,6 +6,7 @@
 
 #include "common/matching/descriptor_similarity.h"
 #include "common/matching/neighbourhood.h"
+#include "common/matching/verification.h"
 #include "common/util/timer.h"
 
 namespace sceneloc {
@@ -14,6 +15,9 @@ Status MatchOptions::Validate() const {
   if (!(s_min > 0.0 && s_min <= 1.0)) return InvalidArgument("s_min must be in (0, 1]");
   if (max_neighbours < 0) return InvalidArgument("max_neighbours must be >= 0 (0 = all)");
   if (top_k < 1 || top_k > 1000) return InvalidArgument("top_k must be in [1, 1000]");
+  if (verify_top < 0 || verify_top > 1000)
+    return InvalidArgument("verify_top must be in [0, 1000]");
+  if (!(verify_ransac_px > 0.0)) return InvalidArgument("verify_ransac_px must be > 0");
   if (!(size_exponent >= 0.0 && size_exponent <= 2.0)) {
     return InvalidArgument("size_exponent must be in [0, 2]");
   }
@@ -43,9 +47,9 @@ Status ValidateFeatureSet(const FeatureSet& f) {
   return Status::Ok();
 }
 
-StatusOr<std::vector<float>> LocationLikelihoods(const FeatureSet& features, const Map& map,
-                                                 const MatchOptions& options, ThreadPool* pool,
-                                                 LocaliseResult* stats) {
+StatusOr<FrameScores> ScoreLocations(const FeatureSet& features, const Map& map,
+                                     const MatchOptions& options, ThreadPool* pool,
+                                     LocaliseResult* stats) {
   SCENELOC_RETURN_IF_ERROR(options.Validate());
   SCENELOC_RETURN_IF_ERROR(ValidateFeatureSet(features));
   Stopwatch watch;
@@ -70,14 +74,21 @@ StatusOr<std::vector<float>> LocationLikelihoods(const FeatureSet& features, con
     for (const DescriptorMatch& m : matches) mass[m.feature] += m.similarity;
   }
   // max_f S(f, g) per landmark, then eq. 3.
-  std::vector<float> best(static_cast<size_t>(map.num_landmarks()), 0.0f);
+  FrameScores scores;
+  std::vector<float>& best = scores.best_score;
+  best.assign(static_cast<size_t>(map.num_landmarks()), 0.0f);
+  scores.best_feature.assign(best.size(), -1);
   for (size_t k = 0; k < matches.size(); ++k) {
     const DescriptorMatch& m = matches[k];
     float s = m.similarity * (options.use_neighbourhood ? neighbourhood[k] : 1.0f);
     if (options.distinctiveness) s *= m.similarity / mass[m.feature];
-    best[m.landmark] = std::max(best[m.landmark], s);
+    if (s > best[m.landmark]) {
+      best[m.landmark] = s;
+      scores.best_feature[m.landmark] = static_cast<int32_t>(m.feature);
+    }
   }
-  std::vector<float> likelihood(static_cast<size_t>(map.num_images()), 0.0f);
+  std::vector<float>& likelihood = scores.likelihood;
+  likelihood.assign(static_cast<size_t>(map.num_images()), 0.0f);
   for (int l = 0; l < map.num_images(); ++l) {
     const uint32_t begin = map.image_offsets[l], end = map.image_offsets[l + 1];
     if (begin == end) continue;
@@ -87,32 +98,69 @@ StatusOr<std::vector<float>> LocationLikelihoods(const FeatureSet& features, con
         static_cast<float>(sum / std::pow(static_cast<double>(end - begin), options.size_exponent));
   }
   stats->timings.likelihood_ms = watch.Milliseconds();
-  return likelihood;
+  return scores;
 }
+
+namespace {
+
+// Locations by descending L (lowest index first on ties).
+std::vector<int> RankByLikelihood(const std::vector<float>& likelihood) {
+  std::vector<int> order(likelihood.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int a, int b) { return likelihood[a] > likelihood[b]; });
+  return order;
+}
+
+float Ratio(double first, double second) {
+  return first + second > 0 ? static_cast<float>(first / (first + second)) : 0.0f;
+}
+
+}  // namespace
 
 StatusOr<LocaliseResult> Localise(const FeatureSet& features, const Map& map,
                                   const MatchOptions& options, ThreadPool* pool) {
   Stopwatch total;
   LocaliseResult result;
-  SCENELOC_ASSIGN_OR_RETURN(const std::vector<float> likelihood,
-                            LocationLikelihoods(features, map, options, pool, &result));
-  Stopwatch rank;
-  std::vector<int> order(likelihood.size());
-  std::iota(order.begin(), order.end(), 0);
-  const size_t k = std::min(order.size(), static_cast<size_t>(options.top_k));
-  const size_t k2 = std::min(order.size(), std::max<size_t>(k, 2));
-  std::partial_sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(k2), order.end(),
-                    [&](int a, int b) {
-                      return likelihood[a] > likelihood[b] ||
-                             (likelihood[a] == likelihood[b] && a < b);
-                    });
-  for (size_t i = 0; i < k; ++i) {
-    result.ranked.push_back({order[i], map.image_names[order[i]], likelihood[order[i]]});
+  SCENELOC_ASSIGN_OR_RETURN(const FrameScores scores,
+                            ScoreLocations(features, map, options, pool, &result));
+  const std::vector<float>& likelihood = scores.likelihood;
+  Stopwatch stage;
+  std::vector<int> order = RankByLikelihood(likelihood);
+  result.timings.likelihood_ms += stage.Milliseconds();
+
+  stage.Reset();
+  const size_t verified = std::min(order.size(), static_cast<size_t>(options.verify_top));
+  std::vector<int> inliers(likelihood.size(), -1);
+  if (verified > 0) {
+    // Candidates are verified one per task; each RANSAC is independent.
+    auto verify = [&](size_t begin, size_t end) {
+      for (size_t i = begin; i < end; ++i) {
+        inliers[order[i]] = CountEpipolarInliers(features, map, order[i], scores.best_score,
+                                                 scores.best_feature, options.verify_ransac_px);
+      }
+    };
+    if (pool != nullptr) {
+      pool->ParallelFor(verified, 1, verify);
+    } else {
+      verify(0, verified);
+    }
+    std::stable_sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(verified),
+                     [&](int a, int b) { return inliers[a] > inliers[b]; });
   }
-  const float l1 = k2 > 0 ? likelihood[order[0]] : 0.0f;
-  const float l2 = k2 > 1 ? likelihood[order[1]] : 0.0f;
-  result.confidence = l1 + l2 > 0 ? l1 / (l1 + l2) : 0.0f;
-  result.timings.likelihood_ms += rank.Milliseconds();
+  result.timings.verify_ms = stage.Milliseconds();
+
+  const size_t k = std::min(order.size(), static_cast<size_t>(options.top_k));
+  for (size_t i = 0; i < k; ++i) {
+    result.ranked.push_back(
+        {order[i], map.image_names[order[i]], likelihood[order[i]], inliers[order[i]]});
+  }
+  if (order.size() >= 2) {
+    result.confidence = verified >= 2 ? Ratio(inliers[order[0]], inliers[order[1]])
+                                      : Ratio(likelihood[order[0]], likelihood[order[1]]);
+  } else if (!order.empty() && likelihood[order[0]] > 0) {
+    result.confidence = 1.0f;
+  }
   result.timings.total_ms = total.Milliseconds();
   return result;
 }

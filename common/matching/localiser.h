@@ -36,6 +36,12 @@ struct MatchOptions {
   // L(l) = sum_{g in G_l} max_f S(f,g) / |G_l|^alpha. alpha = 1 is eq. 3; smaller values
   // stop images with few landmarks from winning on a handful of chance matches.
   double size_exponent = 1.0;
+  // Re-rank this many best locations by geometric verification (verification.h): by the
+  // number of epipolar inliers between the query and the landmarks' positions in each
+  // candidate, ties broken by L. 0 ranks by L alone (paper).
+  int verify_top = 0;
+  // RANSAC inlier threshold for that verification, pixels in the extraction frame.
+  double verify_ransac_px = 3.0;
   // How many ranked locations a result carries.
   int top_k = 5;
 
@@ -46,19 +52,23 @@ struct RankedLocation {
   int index = 0;           // tour location (image index in the map)
   std::string image_name;  // tour image file name
   float likelihood = 0;    // L(l)
+  int inliers = -1;        // epipolar inliers when verified, else -1
 };
 
 struct StageTimings {
   double descriptor_ms = 0;     // S_D over all pairs
   double neighbourhood_ms = 0;  // S_N over the surviving pairs
   double likelihood_ms = 0;     // L(l) and ranking
+  double verify_ms = 0;         // geometric verification of the best candidates
   double total_ms = 0;
 };
 
 struct LocaliseResult {
   std::vector<RankedLocation> ranked;  // best first, at most top_k
-  float confidence = 0;                // L1 / (L1 + L2); 0 when nothing matched
-  size_t descriptor_matches = 0;       // pairs with S_D >= s_min
+  // L1 / (L1 + L2) over the final order; with verification, the same ratio of the two
+  // best candidates' inlier counts. 0 when nothing matched.
+  float confidence = 0;
+  size_t descriptor_matches = 0;  // pairs with S_D >= s_min
   StageTimings timings;
 };
 
@@ -71,9 +81,17 @@ Status ValidateFeatureSet(const FeatureSet& features);
 StatusOr<LocaliseResult> Localise(const FeatureSet& features, const Map& map,
                                   const MatchOptions& options, ThreadPool* pool);
 
-// The likelihood of every tour location (exposed for evaluation and tests).
-StatusOr<std::vector<float>> LocationLikelihoods(const FeatureSet& features, const Map& map,
-                                                 const MatchOptions& options, ThreadPool* pool,
-                                                 LocaliseResult* stats);
+// Per-landmark and per-location scores of one frame.
+struct FrameScores {
+  std::vector<float> likelihood;      // L(l) per tour location
+  std::vector<float> best_score;      // max_f S(f, g) per landmark
+  std::vector<int32_t> best_feature;  // its argmax, -1 when g matched nothing
+};
+
+// Scores every tour location (exposed for evaluation and tests); fills the descriptor
+// match count and stage timings of `stats`.
+StatusOr<FrameScores> ScoreLocations(const FeatureSet& features, const Map& map,
+                                     const MatchOptions& options, ThreadPool* pool,
+                                     LocaliseResult* stats);
 
 }  // namespace sceneloc

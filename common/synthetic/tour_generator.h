@@ -30,10 +30,10 @@ inline constexpr int kTestPass = 1;
 struct TourOptions {
   // Images per pass: locations 0 .. num_locations - 1 along the route. 1 .. 100000.
   int num_locations = 40;
-  // Size of every image in pixels: 160 .. 4096 wide, at least 16 high, landscape and at
-  // most 4:3 (image_height * 4 <= image_width * 3), so the facade fills every view. The scene's
-  // texture is drawn at a resolution proportional to image_width, so larger images are not merely
-  // upsampled.
+  // Size of every image in pixels: 160 .. 4096 wide, at least 16 high, landscape and
+  // at most 4:3 (image_height * 4 <= image_width * 3), so the facade fills every view.
+  // The texture is drawn at a resolution proportional to image_width, so larger images
+  // are not merely upsampled.
   int image_width = 640;
   int image_height = 360;
   // Seeds the scene and the sensor noise. The same options give byte-identical images;
@@ -70,7 +70,7 @@ struct TourOptions {
 
 // Renders every location of pass kTrainingPass or kTestPass and returns one JPEG file's
 // bytes per location, in route order. Errors: invalid options or pass
-// (kInvalidArgument); OpenCV failing (kInternal). Holds every JPEG in memory (~100 KB
+// (kInvalidArgument); OpenCV failing (kInternal). Holds every JPEG in memory (~70 KB
 // each at 640x360); use WriteTour for long tours.
 StatusOr<std::vector<std::string>> RenderTourJpegs(const TourOptions& options, int pass);
 

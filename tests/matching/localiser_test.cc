@@ -61,8 +61,9 @@ TEST(LocaliserTest, LikelihoodsMatchBruteForceEquationThree) {
   }
   ThreadPool pool(2);
   LocaliseResult stats;
-  const auto got = LocationLikelihoods(f, map, options, &pool, &stats);
-  ASSERT_TRUE(got.ok()) << got.status().ToString();
+  const auto scores = ScoreLocations(f, map, options, &pool, &stats);
+  ASSERT_TRUE(scores.ok()) << scores.status().ToString();
+  const std::vector<float>* got = &scores->likelihood;
   for (int l = 0; l < map.num_images(); ++l) {
     double sum = 0;
     const uint32_t b = map.image_offsets[l], e = map.image_offsets[l + 1];
