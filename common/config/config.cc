@@ -57,6 +57,7 @@ std::vector<Field> MatchFields(MatchOptions* o) {
       {"matching", "size_exponent", &o->size_exponent, 0, 2},
       {"matching", "verify_top", &o->verify_top, 0, 1000},
       {"matching", "verify_ransac_px", &o->verify_ransac_px, 0.01, 100},
+      {"matching", "verify_ransac_iterations", &o->verify_ransac_iterations, 1, 100000},
       {"matching", "top_k", &o->top_k, 1, 1000},
   };
 }

@@ -29,13 +29,15 @@ struct TrainOptions {
   // sigma^2_min for the local descriptor: the variance never falls below this, so a
   // landmark of 2 near-identical features still tolerates a view from elsewhere. Units:
   // squared L2 distance between unit descriptors.
-  double local_var_floor = 0.02;
+  // Default chosen by measurement (docs/results.md): true matches seen from the other side
+  // of a path lie much further from the mean than a landmark's own ~1 m track spreads.
+  double local_var_floor = 0.16;
   // sigma^2_min for each of the 16 context histograms (same units, per histogram).
-  double context_var_floor = 0.002;
+  double context_var_floor = 0.016;
   // Floors for the spatial statistics of co-occurring landmarks: distance variance
   // (pixels^2, extraction frame) and angle variance (radians^2).
-  double distance_var_floor = 100.0;
-  double angle_var_floor = 0.01;
+  double distance_var_floor = 400.0;
+  double angle_var_floor = 0.05;
 
   // --- Quality and selection (paper IV) ---
   // S_min used when computing Q (eq. 4): pairs below it carry no similarity mass.

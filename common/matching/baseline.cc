@@ -72,9 +72,10 @@ StatusOr<std::unique_ptr<VotingBaseline>> VotingBaseline::Build(const std::vecto
     }
   }
   try {
-    // FLANN's randomised kd-trees draw from the C library's rand(); a fixed seed makes the
+    // FLANN's randomised kd-trees draw from rand() and OpenCV's RNG; fixed seeds make the
     // baseline's figures repeatable from run to run.
     std::srand(0);
+    cv::theRNG().state = 0x12345678;
     return std::unique_ptr<VotingBaseline>(std::make_unique<FlannVotingBaseline>(
         std::move(descriptors), std::move(image_of), static_cast<int>(tour.size()), options));
   } catch (const cv::Exception& e) {

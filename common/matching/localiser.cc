@@ -18,6 +18,7 @@ Status MatchOptions::Validate() const {
   if (verify_top < 0 || verify_top > 1000)
     return InvalidArgument("verify_top must be in [0, 1000]");
   if (!(verify_ransac_px > 0.0)) return InvalidArgument("verify_ransac_px must be > 0");
+  if (verify_ransac_iterations < 1) return InvalidArgument("verify_ransac_iterations must be >= 1");
   if (!(size_exponent >= 0.0 && size_exponent <= 2.0)) {
     return InvalidArgument("size_exponent must be in [0, 2]");
   }
@@ -136,8 +137,9 @@ StatusOr<LocaliseResult> Localise(const FeatureSet& features, const Map& map,
     // Candidates are verified one per task; each RANSAC is independent.
     auto verify = [&](size_t begin, size_t end) {
       for (size_t i = begin; i < end; ++i) {
-        inliers[order[i]] = CountEpipolarInliers(features, map, order[i], scores.best_score,
-                                                 scores.best_feature, options.verify_ransac_px);
+        inliers[order[i]] =
+            CountEpipolarInliers(features, map, order[i], scores.best_score, scores.best_feature,
+                                 options.verify_ransac_px, options.verify_ransac_iterations);
       }
     };
     if (pool != nullptr) {

@@ -38,10 +38,12 @@ struct MatchOptions {
   double size_exponent = 1.0;
   // Re-rank this many best locations by geometric verification (verification.h): by the
   // number of epipolar inliers between the query and the landmarks' positions in each
-  // candidate, ties broken by L. 0 ranks by L alone (paper).
-  int verify_top = 0;
+  // candidate, ties broken by L. 0 ranks by L alone (paper). Default by measurement.
+  int verify_top = 10;
   // RANSAC inlier threshold for that verification, pixels in the extraction frame.
   double verify_ransac_px = 3.0;
+  // RANSAC iterations per verified candidate at most (its cost grows linearly with this).
+  int verify_ransac_iterations = 500;
   // How many ranked locations a result carries.
   int top_k = 5;
 

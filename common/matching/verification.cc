@@ -6,7 +6,8 @@ namespace sceneloc {
 
 int CountEpipolarInliers(const FeatureSet& features, const Map& map, int location,
                          const std::vector<float>& best_score,
-                         const std::vector<int32_t>& best_feature, double ransac_threshold_px) {
+                         const std::vector<int32_t>& best_feature, double ransac_threshold_px,
+                         int max_iterations) {
   std::vector<cv::Point2f> query, tour;
   for (uint32_t k = map.image_offsets[location]; k < map.image_offsets[location + 1]; ++k) {
     const uint32_t g = map.image_landmarks[k];
@@ -24,8 +25,8 @@ int CountEpipolarInliers(const FeatureSet& features, const Map& map, int locatio
     cv::Mat inliers;
     // A fixed RNG state keeps answers repeatable: OpenCV's RANSAC draws from theRNG().
     cv::theRNG().state = 0x12345678;
-    const cv::Mat f =
-        cv::findFundamentalMat(query, tour, cv::FM_RANSAC, ransac_threshold_px, 0.99, inliers);
+    const cv::Mat f = cv::findFundamentalMat(query, tour, cv::FM_RANSAC, ransac_threshold_px, 0.99,
+                                             max_iterations, inliers);
     if (f.empty() || inliers.empty()) return 0;
     return cv::countNonZero(inliers);
   } catch (const cv::Exception&) {

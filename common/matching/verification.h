@@ -15,9 +15,10 @@ namespace sceneloc {
 
 // Epipolar inliers between the query and tour image `location`. best_score[g] and
 // best_feature[g] are max_f S(f, g) and its argmax (-1 when g matched nothing).
-// Returns 0 when fewer than 8 correspondences exist.
+// Returns 0 when fewer than 8 correspondences exist. RANSAC stops after max_iterations.
 int CountEpipolarInliers(const FeatureSet& features, const Map& map, int location,
                          const std::vector<float>& best_score,
-                         const std::vector<int32_t>& best_feature, double ransac_threshold_px);
+                         const std::vector<int32_t>& best_feature, double ransac_threshold_px,
+                         int max_iterations);
 
 }  // namespace sceneloc

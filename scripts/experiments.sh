@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# The paper's experiments on Gardens Point, with the baseline on the same axes:
+#   eta sweep (Fig. 5), eta_opt against environment size (Fig. 6), and the ablation.
+# Writes CSVs and PNG plots to docs/experiments/ (or OUT_DIR). Long: about 30-60 minutes on
+# 2 cores; not part of the test suite.
+# Usage: scripts/experiments.sh [OUT_DIR] [DATA_DIR]
+set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+out="${1:-$root/docs/experiments}"
+data="${2:-$root/../shared/data/gardens_point}"
+[[ -d "$data/day_left" && -d "$data/day_right" ]] || {
+  echo "experiments: $data/day_left and day_right are needed" >&2; exit 1; }
+bash "$root/scripts/setup.sh"
+command -v python3 >/dev/null && python3 -c 'import matplotlib' 2>/dev/null || {
+  sudo=""; [[ $(id -u) -ne 0 ]] && sudo=sudo
+  $sudo apt-get install -y -qq python3-matplotlib >/dev/null; }
+bash "$root/scripts/build.sh"
+bin="$root/build/tools/sceneloc-experiments"
+common=(--tour "$data/day_left" --queries "$data/day_right" --out "$out" --cache "$out/cache"
+        --train-config "$root/configs/train.yaml" --match-config "$root/configs/match.yaml")
+"$bin" "${common[@]}" --experiment ablation
+"$bin" "${common[@]}" --experiment eta --etas 10,20,30,50,75,100,150,0
+"$bin" "${common[@]}" --experiment size --sizes 25,50,100,150,200 --etas 10,20,50,100,0
+rm -rf "$out/cache"
+python3 "$root/scripts/plot_experiments.py" "$out"
