@@ -44,6 +44,10 @@ nlohmann::json ReportJson(const EvalSummary& s, const std::vector<sceneloc::Quer
   j["mean_confidence"] = s.ours.mean_confidence;
   j["timing_ms"] = {{"extract", PercentilesJson(s.extract_ms)},
                     {"match", PercentilesJson(s.ours.match_ms)},
+                    {"descriptor", PercentilesJson(s.descriptor_ms)},
+                    {"neighbourhood", PercentilesJson(s.neighbourhood_ms)},
+                    {"likelihood", PercentilesJson(s.likelihood_ms)},
+                    {"verify", PercentilesJson(s.verify_ms)},
                     {"map_load", load_ms}};
   if (s.has_baseline) {
     j["baseline"] = {{"match_rate", RatesJson(s.baseline)},
@@ -174,6 +178,11 @@ int main(int argc, char** argv) {
   if (with_baseline) PrintMethod("baseline", s.baseline, tolerance);
   std::printf("extract ms per query: median %.1f, p90 %.1f\n", s.extract_ms.median,
               s.extract_ms.p90);
+  std::printf(
+      "match stages, median ms: descriptor %.2f, neighbourhood %.2f, likelihood %.2f, "
+      "verify %.2f\n",
+      s.descriptor_ms.median, s.neighbourhood_ms.median, s.likelihood_ms.median,
+      s.verify_ms.median);
   if (!json_path.empty()) {
     std::ofstream out(json_path);
     out << ReportJson(s, outcomes, load_ms).dump(2) << "\n";

@@ -58,6 +58,7 @@ std::vector<Field> MatchFields(MatchOptions* o) {
       {"matching", "verify_top", &o->verify_top, 0, 1000},
       {"matching", "verify_ransac_px", &o->verify_ransac_px, 0.01, 100},
       {"matching", "verify_ransac_iterations", &o->verify_ransac_iterations, 1, 100000},
+      {"matching", "verify_scale_sigma", &o->verify_scale_sigma, 0, 10},
       {"matching", "top_k", &o->top_k, 1, 1000},
   };
 }

@@ -182,6 +182,8 @@ Status ValidateObservations(const Map& map) {
       CheckCount("observation_x", map.observation_x.size(), n, "observations"));
   SCENELOC_RETURN_IF_ERROR(
       CheckCount("observation_y", map.observation_y.size(), n, "observations"));
+  SCENELOC_RETURN_IF_ERROR(
+      CheckCount("observation_size", map.observation_size.size(), n, "observations"));
   return CheckIndices(
       map.observation_offsets, [&](uint32_t j) { return map.observation_image[j]; },
       map.image_names.size(), "observation", "landmark", "image", "images");
@@ -215,7 +217,8 @@ Status ValidateLandmarkValues(const Map& map) {
   SCENELOC_RETURN_IF_ERROR(CheckVector("mean_y", map.mean_y, Range::kAny));
   SCENELOC_RETURN_IF_ERROR(CheckVector("quality", map.quality, Range::kAny));
   SCENELOC_RETURN_IF_ERROR(CheckVector("observation_x", map.observation_x, Range::kAny));
-  return CheckVector("observation_y", map.observation_y, Range::kAny);
+  SCENELOC_RETURN_IF_ERROR(CheckVector("observation_y", map.observation_y, Range::kAny));
+  return CheckVector("observation_size", map.observation_size, Range::kPositive);
 }
 
 // The neighbour fields checked by value; `landmark` is checked as an index.
@@ -286,7 +289,7 @@ size_t Map::MemoryBytes() const {
   bytes += VectorBytes(local_dmax) + VectorBytes(local_var) + VectorBytes(mean_x) +
            VectorBytes(mean_y) + VectorBytes(quality);
   bytes += VectorBytes(observation_offsets) + VectorBytes(observation_image) +
-           VectorBytes(observation_x) + VectorBytes(observation_y);
+           VectorBytes(observation_x) + VectorBytes(observation_y) + VectorBytes(observation_size);
   bytes += VectorBytes(neighbour_offsets) + VectorBytes(neighbours);
   bytes += VectorBytes(image_offsets) + VectorBytes(image_landmarks);
   return bytes + VectorBytes(local_mean_sqnorm);

@@ -68,6 +68,7 @@ struct Map {
   std::vector<uint32_t> observation_image;
   std::vector<float> observation_x;
   std::vector<float> observation_y;
+  std::vector<float> observation_size;  // keypoint size (diameter) in that image, pixels
 
   // Neighbours (CSR over landmarks), sorted by distance from the landmark's mean position.
   std::vector<uint32_t> neighbour_offsets;  // L + 1

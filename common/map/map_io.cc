@@ -227,6 +227,7 @@ void TransferMap(Archive& a, MapT& m) {
   a.Field("observation_image", m.observation_image);
   a.Field("observation_x", m.observation_x);
   a.Field("observation_y", m.observation_y);
+  a.Field("observation_size", m.observation_size);
   a.Field("neighbour_offsets", m.neighbour_offsets);
   a.Field("neighbours", m.neighbours);
   a.Field("image_offsets", m.image_offsets);

@@ -30,7 +30,8 @@
 //                    mat context_mean (128), mat context_dmax (16), mat context_var (16),
 //                    arr<f32> mean_x, arr<f32> mean_y, arr<f32> quality
 //     Observations   arr<u32> observation_offsets, arr<u32> observation_image,
-//                    arr<f32> observation_x, arr<f32> observation_y
+//                    arr<f32> observation_x, arr<f32> observation_y,
+//                    arr<f32> observation_size
 //     Neighbours     arr<u32> neighbour_offsets, arr<neighbour> neighbours
 //     Image lists    arr<u32> image_offsets, arr<u32> image_landmarks
 //   where  str       = u64 byte count, then the bytes (UTF-8, no terminator)

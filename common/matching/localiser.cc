@@ -19,6 +19,7 @@ Status MatchOptions::Validate() const {
     return InvalidArgument("verify_top must be in [0, 1000]");
   if (!(verify_ransac_px > 0.0)) return InvalidArgument("verify_ransac_px must be > 0");
   if (verify_ransac_iterations < 1) return InvalidArgument("verify_ransac_iterations must be >= 1");
+  if (!(verify_scale_sigma >= 0.0)) return InvalidArgument("verify_scale_sigma must be >= 0");
   if (!(size_exponent >= 0.0 && size_exponent <= 2.0)) {
     return InvalidArgument("size_exponent must be in [0, 2]");
   }
@@ -133,13 +134,23 @@ StatusOr<LocaliseResult> Localise(const FeatureSet& features, const Map& map,
   stage.Reset();
   const size_t verified = std::min(order.size(), static_cast<size_t>(options.verify_top));
   std::vector<int> inliers(likelihood.size(), -1);
+  std::vector<float> log_scale(likelihood.size(), 0.0f);
+  std::vector<double> verified_score(likelihood.size(), 0.0);
   if (verified > 0) {
     // Candidates are verified one per task; each RANSAC is independent.
     auto verify = [&](size_t begin, size_t end) {
       for (size_t i = begin; i < end; ++i) {
-        inliers[order[i]] =
-            CountEpipolarInliers(features, map, order[i], scores.best_score, scores.best_feature,
-                                 options.verify_ransac_px, options.verify_ransac_iterations);
+        const int l = order[i];
+        const Verification v =
+            VerifyCandidate(features, map, l, scores.best_score, scores.best_feature,
+                            options.verify_ransac_px, options.verify_ransac_iterations);
+        inliers[l] = v.inliers;
+        log_scale[l] = v.log_scale;
+        verified_score[l] = v.inliers;
+        if (options.verify_scale_sigma > 0) {
+          const double s = options.verify_scale_sigma;
+          verified_score[l] *= std::exp(-v.log_scale * v.log_scale / (2 * s * s));
+        }
       }
     };
     if (pool != nullptr) {
@@ -148,17 +159,17 @@ StatusOr<LocaliseResult> Localise(const FeatureSet& features, const Map& map,
       verify(0, verified);
     }
     std::stable_sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(verified),
-                     [&](int a, int b) { return inliers[a] > inliers[b]; });
+                     [&](int a, int b) { return verified_score[a] > verified_score[b]; });
   }
   result.timings.verify_ms = stage.Milliseconds();
 
   const size_t k = std::min(order.size(), static_cast<size_t>(options.top_k));
   for (size_t i = 0; i < k; ++i) {
-    result.ranked.push_back(
-        {order[i], map.image_names[order[i]], likelihood[order[i]], inliers[order[i]]});
+    result.ranked.push_back({order[i], map.image_names[order[i]], likelihood[order[i]],
+                             inliers[order[i]], log_scale[order[i]]});
   }
   if (order.size() >= 2) {
-    result.confidence = verified >= 2 ? Ratio(inliers[order[0]], inliers[order[1]])
+    result.confidence = verified >= 2 ? Ratio(verified_score[order[0]], verified_score[order[1]])
                                       : Ratio(likelihood[order[0]], likelihood[order[1]]);
   } else if (!order.empty() && likelihood[order[0]] > 0) {
     result.confidence = 1.0f;

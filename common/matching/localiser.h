@@ -43,7 +43,11 @@ struct MatchOptions {
   // RANSAC inlier threshold for that verification, pixels in the extraction frame.
   double verify_ransac_px = 3.0;
   // RANSAC iterations per verified candidate at most (its cost grows linearly with this).
-  int verify_ransac_iterations = 500;
+  int verify_ransac_iterations = 200;
+  // Scale agreement: a verified candidate's inlier count is weighted by
+  // exp(-m^2 / (2 s^2)), m the median log ratio of query to tour keypoint size over its
+  // inliers, s this setting (e.g. 0.2 ~ sizes within about 20%). 0 turns it off.
+  double verify_scale_sigma = 0.15;
   // How many ranked locations a result carries.
   int top_k = 5;
 
@@ -55,6 +59,7 @@ struct RankedLocation {
   std::string image_name;  // tour image file name
   float likelihood = 0;    // L(l)
   int inliers = -1;        // epipolar inliers when verified, else -1
+  float log_scale = 0;     // median log(query / tour keypoint size) of the inliers
 };
 
 struct StageTimings {
@@ -68,7 +73,7 @@ struct StageTimings {
 struct LocaliseResult {
   std::vector<RankedLocation> ranked;  // best first, at most top_k
   // L1 / (L1 + L2) over the final order; with verification, the same ratio of the two
-  // best candidates' inlier counts. 0 when nothing matched.
+  // best candidates' verified scores (inliers, scale-weighted). 0 when nothing matched.
   float confidence = 0;
   size_t descriptor_matches = 0;  // pairs with S_D >= s_min
   StageTimings timings;

@@ -1,14 +1,17 @@
 #include "common/matching/verification.h"
 
+#include <algorithm>
+#include <cmath>
 #include <opencv2/calib3d.hpp>
 
 namespace sceneloc {
 
-int CountEpipolarInliers(const FeatureSet& features, const Map& map, int location,
-                         const std::vector<float>& best_score,
-                         const std::vector<int32_t>& best_feature, double ransac_threshold_px,
-                         int max_iterations) {
+Verification VerifyCandidate(const FeatureSet& features, const Map& map, int location,
+                             const std::vector<float>& best_score,
+                             const std::vector<int32_t>& best_feature, double ransac_threshold_px,
+                             int max_iterations) {
   std::vector<cv::Point2f> query, tour;
+  std::vector<float> log_scale;
   for (uint32_t k = map.image_offsets[location]; k < map.image_offsets[location + 1]; ++k) {
     const uint32_t g = map.image_landmarks[k];
     if (best_feature[g] < 0 || best_score[g] <= 0) continue;
@@ -17,21 +20,33 @@ int CountEpipolarInliers(const FeatureSet& features, const Map& map, int locatio
       const Keypoint& kp = features.keypoints[static_cast<size_t>(best_feature[g])];
       query.emplace_back(kp.x, kp.y);
       tour.emplace_back(map.observation_x[o], map.observation_y[o]);
+      log_scale.push_back(std::log(std::max(kp.size, 1e-3f) / map.observation_size[o]));
       break;
     }
   }
-  if (query.size() < 8) return 0;
+  Verification v;
+  if (query.size() < 8) return v;
+  cv::Mat inliers;
   try {
-    cv::Mat inliers;
     // A fixed RNG state keeps answers repeatable: OpenCV's RANSAC draws from theRNG().
     cv::theRNG().state = 0x12345678;
     const cv::Mat f = cv::findFundamentalMat(query, tour, cv::FM_RANSAC, ransac_threshold_px, 0.99,
                                              max_iterations, inliers);
-    if (f.empty() || inliers.empty()) return 0;
-    return cv::countNonZero(inliers);
+    if (f.empty() || inliers.empty()) return v;
   } catch (const cv::Exception&) {
-    return 0;  // degenerate point sets: no geometric support
+    return v;  // degenerate point sets: no geometric support
   }
+  std::vector<float> inlier_scale;
+  for (size_t i = 0; i < log_scale.size(); ++i) {
+    if (inliers.at<uchar>(static_cast<int>(i)) != 0) inlier_scale.push_back(log_scale[i]);
+  }
+  v.inliers = static_cast<int>(inlier_scale.size());
+  if (!inlier_scale.empty()) {
+    auto mid = inlier_scale.begin() + static_cast<std::ptrdiff_t>(inlier_scale.size() / 2);
+    std::nth_element(inlier_scale.begin(), mid, inlier_scale.end());
+    v.log_scale = *mid;
+  }
+  return v;
 }
 
 }  // namespace sceneloc

@@ -1,8 +1,11 @@
 // Geometric verification of the best candidate locations (a departure from the paper,
 // measured in docs/results.md): for a candidate tour image l, each landmark of G_l that
 // the query matched gives a correspondence between its best query feature and where the
-// landmark was seen in l; the number of those correspondences that are inliers of a
-// RANSAC fundamental matrix says whether the query really views the same scene as l.
+// landmark was seen in l. Two cues say whether the query views the scene from l:
+//   - how many correspondences are inliers of a RANSAC fundamental matrix, and
+//   - the median log ratio of query to tour keypoint size over those inliers: a tour
+//     image taken further back along the route sees the same points smaller, so at the
+//     true location the ratio is near 1 (log near 0).
 #pragma once
 
 #include <cstdint>
@@ -13,12 +16,16 @@
 
 namespace sceneloc {
 
-// Epipolar inliers between the query and tour image `location`. best_score[g] and
-// best_feature[g] are max_f S(f, g) and its argmax (-1 when g matched nothing).
-// Returns 0 when fewer than 8 correspondences exist. RANSAC stops after max_iterations.
-int CountEpipolarInliers(const FeatureSet& features, const Map& map, int location,
-                         const std::vector<float>& best_score,
-                         const std::vector<int32_t>& best_feature, double ransac_threshold_px,
-                         int max_iterations);
+struct Verification {
+  int inliers = 0;      // epipolar inliers; 0 with fewer than 8 correspondences
+  float log_scale = 0;  // median log(query size / tour size) over the inliers
+};
+
+// best_score[g] and best_feature[g] are max_f S(f, g) and its argmax (-1 when g matched
+// nothing). RANSAC stops after max_iterations. Deterministic for the same input.
+Verification VerifyCandidate(const FeatureSet& features, const Map& map, int location,
+                             const std::vector<float>& best_score,
+                             const std::vector<int32_t>& best_feature, double ransac_threshold_px,
+                             int max_iterations);
 
 }  // namespace sceneloc

@@ -81,6 +81,7 @@ void FuseLandmarks(const std::vector<Track>& tracks, const std::vector<FeatureSe
   map->observation_image.clear();
   map->observation_x.clear();
   map->observation_y.clear();
+  map->observation_size.clear();
   for (size_t t = 0; t < tracks.size(); ++t) {
     FuseOne(tracks[t], tour, options, static_cast<int>(t), map);
     double sx = 0, sy = 0;
@@ -89,6 +90,7 @@ void FuseLandmarks(const std::vector<Track>& tracks, const std::vector<FeatureSe
       map->observation_image.push_back(o.image);
       map->observation_x.push_back(k.x);
       map->observation_y.push_back(k.y);
+      map->observation_size.push_back(k.size);
       sx += k.x;
       sy += k.y;
     }

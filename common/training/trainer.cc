@@ -56,6 +56,7 @@ Map SubsetLandmarks(const Map& all, const std::vector<uint32_t>& keep) {
       out.observation_image.push_back(all.observation_image[o]);
       out.observation_x.push_back(all.observation_x[o]);
       out.observation_y.push_back(all.observation_y[o]);
+      out.observation_size.push_back(all.observation_size[o]);
     }
     out.observation_offsets.push_back(static_cast<uint32_t>(out.observation_image.size()));
   }

@@ -22,7 +22,8 @@ FeatureSet FeaturesOfImage(const Map& map, int l, uint32_t seed) {
     const uint32_t g = map.image_landmarks[k];
     for (uint32_t o = map.observation_offsets[g]; o < map.observation_offsets[g + 1]; ++o) {
       if (map.observation_image[o] != static_cast<uint32_t>(l)) continue;
-      f.keypoints.push_back({map.observation_x[o], map.observation_y[o], 4, 0, 1, 0});
+      f.keypoints.push_back(
+          {map.observation_x[o], map.observation_y[o], map.observation_size[o], 0, 1, 0});
       rows.push_back(static_cast<int>(g));
     }
   }
@@ -79,6 +80,7 @@ TEST(LocaliserTest, RanksAndComputesConfidence) {
   const FeatureSet f = FeaturesOfImage(map, 7, 2);
   MatchOptions options;
   options.use_neighbourhood = false;
+  options.verify_top = 0;  // rank by L alone, the paper's eq. 3
   options.top_k = 4;
   const auto r = Localise(f, map, options, nullptr);
   ASSERT_TRUE(r.ok());
@@ -91,6 +93,26 @@ TEST(LocaliserTest, RanksAndComputesConfidence) {
   const float l1 = r->ranked[0].likelihood, l2 = r->ranked[1].likelihood;
   EXPECT_NEAR(r->confidence, l1 / (l1 + l2), 1e-6);
   EXPECT_GT(r->descriptor_matches, 0u);
+}
+
+// Verification re-ranks the best candidates: the frame's own tour image has every
+// correspondence as an epipolar inlier at equal keypoint sizes, so it comes first, with
+// its inlier count and a zero scale log-ratio reported.
+TEST(LocaliserTest, VerificationRanksTheTrueImageFirst) {
+  const Map map = test::MakeRandomMap(15, 600, 25);
+  const FeatureSet f = FeaturesOfImage(map, 9, 4);
+  MatchOptions options;
+  options.verify_top = 5;
+  options.verify_scale_sigma = 0.15;
+  const auto r = Localise(f, map, options, nullptr);
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(r->ranked[0].index, 9);
+  EXPECT_GE(r->ranked[0].inliers, 8);
+  EXPECT_NEAR(r->ranked[0].log_scale, 0.0f, 1e-6);
+  EXPECT_GT(r->confidence, 0.5f);
+  for (size_t i = 1; i < r->ranked.size(); ++i) {
+    if (r->ranked[i].inliers >= 0) EXPECT_LE(r->ranked[i].inliers, r->ranked[0].inliers);
+  }
 }
 
 // Untrusted feature sets: mismatched counts and non-finite numbers are refused.

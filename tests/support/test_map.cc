@@ -63,6 +63,7 @@ void FillObservations(std::mt19937& rng, Map* map) {
       map->observation_image.push_back(static_cast<uint32_t>(first + k));
       map->observation_x.push_back(x + Uniform(rng, -3.0f, 3.0f));
       map->observation_y.push_back(y + Uniform(rng, -3.0f, 3.0f));
+      map->observation_size.push_back(Uniform(rng, 2.0f, 20.0f));
       sum_x += map->observation_x.back();
       sum_y += map->observation_y.back();
     }
@@ -242,6 +243,7 @@ void ExpectMapsEqual(const Map& a, const Map& b) {
   ExpectArraysEqual("observation_image", a.observation_image, b.observation_image);
   ExpectArraysEqual("observation_x", a.observation_x, b.observation_x);
   ExpectArraysEqual("observation_y", a.observation_y, b.observation_y);
+  ExpectArraysEqual("observation_size", a.observation_size, b.observation_size);
   ExpectArraysEqual("neighbour_offsets", a.neighbour_offsets, b.neighbour_offsets);
   ExpectArraysEqual("neighbours", a.neighbours, b.neighbours);
   ExpectArraysEqual("image_offsets", a.image_offsets, b.image_offsets);

@@ -100,9 +100,16 @@ EvalSummary Summarise(const std::vector<QueryOutcome>& outcomes, bool with_basel
   s.ours = SummariseMethod(outcomes, false);
   if (with_baseline) s.baseline = SummariseMethod(outcomes, true);
   s.has_baseline = with_baseline;
-  std::vector<double> extract;
-  for (const QueryOutcome& o : outcomes) extract.push_back(o.extract_ms);
-  s.extract_ms = ComputePercentiles(extract);
+  const auto stage = [&](auto field) {
+    std::vector<double> values;
+    for (const QueryOutcome& o : outcomes) values.push_back(field(o));
+    return ComputePercentiles(values);
+  };
+  s.extract_ms = stage([](const QueryOutcome& o) { return o.extract_ms; });
+  s.descriptor_ms = stage([](const QueryOutcome& o) { return o.stages.descriptor_ms; });
+  s.neighbourhood_ms = stage([](const QueryOutcome& o) { return o.stages.neighbourhood_ms; });
+  s.likelihood_ms = stage([](const QueryOutcome& o) { return o.stages.likelihood_ms; });
+  s.verify_ms = stage([](const QueryOutcome& o) { return o.stages.verify_ms; });
   return s;
 }
 
@@ -119,6 +126,7 @@ Status RunQueries(const std::vector<FeatureSet>& queries, const Map& map,
     o.predicted = r.ranked.empty() || r.ranked[0].likelihood <= 0 ? -1 : r.ranked[0].index;
     o.confidence = r.confidence;
     o.descriptor_matches = r.descriptor_matches;
+    o.stages = r.timings;
   }
   if (baseline_tour == nullptr) return Status::Ok();
   SCENELOC_ASSIGN_OR_RETURN(auto baseline, VotingBaseline::Build(*baseline_tour, {}));

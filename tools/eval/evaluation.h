@@ -34,6 +34,7 @@ struct QueryOutcome {
   double extract_ms = 0;
   double match_ms = 0;
   size_t descriptor_matches = 0;
+  StageTimings stages;  // ours, per matching stage
   int baseline_predicted = -1;
   float baseline_confidence = 0;
   double baseline_ms = 0;
@@ -58,6 +59,8 @@ struct EvalSummary {
   MethodSummary baseline;  // filled when the baseline ran
   bool has_baseline = false;
   Percentiles extract_ms;
+  // Ours, per matching stage: descriptor (S_D), neighbourhood (S_N), likelihood, verify.
+  Percentiles descriptor_ms, neighbourhood_ms, likelihood_ms, verify_ms;
 };
 
 // Summarises outcomes; `with_baseline` says whether the baseline fields are meaningful.
