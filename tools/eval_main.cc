@@ -37,7 +37,7 @@ nlohmann::json PercentilesJson(const Percentiles& p) {
 }
 
 nlohmann::json ReportJson(const EvalSummary& s, const std::vector<sceneloc::QueryOutcome>& out,
-                          double load_ms) {
+                          double load_ms, size_t map_memory_bytes) {
   nlohmann::json j;
   j["queries"] = s.queries;
   j["match_rate"] = RatesJson(s.ours);
@@ -49,6 +49,7 @@ nlohmann::json ReportJson(const EvalSummary& s, const std::vector<sceneloc::Quer
                     {"likelihood", PercentilesJson(s.likelihood_ms)},
                     {"verify", PercentilesJson(s.verify_ms)},
                     {"map_load", load_ms}};
+  j["map_memory_bytes"] = map_memory_bytes;
   if (s.has_baseline) {
     j["baseline"] = {{"match_rate", RatesJson(s.baseline)},
                      {"mean_confidence", s.baseline.mean_confidence},
@@ -169,8 +170,9 @@ int main(int argc, char** argv) {
   const EvalSummary s = sceneloc::Summarise(outcomes, with_baseline);
 
   if (show) PrintAnswers(outcomes, map->image_names, tolerance);
-  std::printf("map %s: %d locations, %d landmarks, loaded in %.1f ms\n", map_path.c_str(),
-              map->num_images(), map->num_landmarks(), load_ms);
+  std::printf("map %s: %d locations, %d landmarks, %.1f MB in memory, loaded in %.1f ms\n",
+              map_path.c_str(), map->num_images(), map->num_landmarks(),
+              static_cast<double>(map->MemoryBytes()) / 1e6, load_ms);
   std::printf("%zu queries from %s, %d matching thread(s)\n", s.queries, queries_dir.c_str(),
               threads);
   std::printf("method     exact   ±1     ±2     ±3     confidence  match ms (median  p90)\n");
@@ -185,7 +187,7 @@ int main(int argc, char** argv) {
       s.verify_ms.median);
   if (!json_path.empty()) {
     std::ofstream out(json_path);
-    out << ReportJson(s, outcomes, load_ms).dump(2) << "\n";
+    out << ReportJson(s, outcomes, load_ms, map->MemoryBytes()).dump(2) << "\n";
     if (!out) return Fail("cannot write '" + json_path + "'");
   }
   return 0;

@@ -169,8 +169,11 @@ StatusOr<LocaliseResult> Localise(const FeatureSet& features, const Map& map,
                              inliers[order[i]], log_scale[order[i]]});
   }
   if (order.size() >= 2) {
-    result.confidence = verified >= 2 ? Ratio(verified_score[order[0]], verified_score[order[1]])
-                                      : Ratio(likelihood[order[0]], likelihood[order[1]]);
+    // Verified scores decide when the best candidate has any geometric support; with none
+    // (e.g. too few correspondences), the ranking and its confidence are L's.
+    const bool by_verification = verified >= 2 && verified_score[order[0]] > 0;
+    result.confidence = by_verification ? Ratio(verified_score[order[0]], verified_score[order[1]])
+                                        : Ratio(likelihood[order[0]], likelihood[order[1]]);
   } else if (!order.empty() && likelihood[order[0]] > 0) {
     result.confidence = 1.0f;
   }

@@ -73,7 +73,8 @@ struct StageTimings {
 struct LocaliseResult {
   std::vector<RankedLocation> ranked;  // best first, at most top_k
   // L1 / (L1 + L2) over the final order; with verification, the same ratio of the two
-  // best candidates' verified scores (inliers, scale-weighted). 0 when nothing matched.
+  // best candidates' verified scores (inliers, scale-weighted) when the best has any
+  // geometric support. 0 when nothing matched.
   float confidence = 0;
   size_t descriptor_matches = 0;  // pairs with S_D >= s_min
   StageTimings timings;
