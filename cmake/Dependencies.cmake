@@ -6,6 +6,10 @@ find_package(Eigen3 3.3 REQUIRED NO_MODULE)
 find_package(spdlog REQUIRED)
 find_package(yaml-cpp REQUIRED)
 find_package(CLI11 REQUIRED)
+# The server's wire: Protobuf 3.21 (libprotobuf-dev, protobuf-compiler) and cppzmq 4.9 over
+# libzmq 4.3 (cppzmq-dev ships a CMake config that finds libzmq through pkg-config).
+find_package(Protobuf REQUIRED)
+find_package(cppzmq REQUIRED)
 if(SCENELOC_BUILD_TESTS)
   find_package(GTest REQUIRED)
 endif()

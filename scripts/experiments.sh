@@ -11,7 +11,7 @@ data="${2:-$root/../shared/data/gardens_point}"
 [[ -d "$data/day_left" && -d "$data/day_right" ]] || {
   echo "experiments: $data/day_left and day_right are needed" >&2; exit 1; }
 bash "$root/scripts/setup.sh"
-command -v python3 >/dev/null && python3 -c 'import matplotlib' 2>/dev/null || {
+/usr/bin/python3 -c "import matplotlib" 2>/dev/null || {
   sudo=""; [[ $(id -u) -ne 0 ]] && sudo=sudo
   $sudo apt-get install -y -qq python3-matplotlib >/dev/null; }
 bash "$root/scripts/build.sh"
@@ -22,4 +22,4 @@ common=(--tour "$data/day_left" --queries "$data/day_right" --out "$out" --cache
 "$bin" "${common[@]}" --experiment eta --etas 10,20,30,50,75,100,150,0
 "$bin" "${common[@]}" --experiment size --sizes 25,50,100,150,200 --etas 10,20,50,100,0
 rm -rf "$out/cache"
-python3 "$root/scripts/plot_experiments.py" "$out"
+/usr/bin/python3 "$root/scripts/plot_experiments.py" "$out"  # Debian's python3-matplotlib

@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """Plots the CSVs of scripts/experiments.sh: eta sweep (paper Fig. 5) and eta_opt
 against environment size (Fig. 6), with the baseline on the same axes."""
 import csv
@@ -72,13 +72,32 @@ def plot_size(out):
     fig.savefig(out / "eta_opt_vs_size.png", dpi=110)
 
 
+def table(path, first_column):
+    """A markdown table of one CSV: ours and the baseline side by side."""
+    lines = [f"| {first_column} | locations | η | landmarks | exact | ±1 | ±2 | ±3 | confidence "
+             "| match ms (median) | baseline ±2 | baseline ±3 |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows(path):
+        lines.append(
+            f"| {r['variant']} | {r['locations']} | {eta_label(r['eta'])} | {r['landmarks']} "
+            f"| {r['rate0']} | {r['rate1']} | **{r['rate2']}** | **{r['rate3']}** "
+            f"| {r['confidence']} | {r['match_ms_median']} | {r['baseline_rate2']} "
+            f"| {r['baseline_rate3']} |")
+    return "\n".join(lines) + "\n"
+
+
 def main():
     out = Path(sys.argv[1] if len(sys.argv) > 1 else "docs/experiments")
+    tables = []
+    for name, title in (("ablation", "variant"), ("eta", "run"), ("size", "run")):
+        if (out / f"{name}.csv").exists():
+            tables.append(f"### {name}\n\n" + table(out / f"{name}.csv", title))
     if (out / "eta.csv").exists():
         plot_eta(out)
     if (out / "size.csv").exists():
         plot_size(out)
-    print(f"plots written to {out}")
+    (out / "tables.md").write_text("\n".join(tables))
+    print(f"plots and tables written to {out}")
 
 
 if __name__ == "__main__":

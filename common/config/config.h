@@ -9,6 +9,7 @@
 
 #include <string>
 
+#include "common/config/settings_table.h"
 #include "common/map/train_options.h"
 #include "common/matching/localiser.h"
 #include "common/util/status.h"
@@ -23,6 +24,11 @@ Status LoadMatchOptions(const std::string& path, MatchOptions* options);
 // Both from YAML text (for tests); `name` names the source in errors.
 Status ParseTrainOptions(const std::string& yaml, const std::string& name, TrainOptions* options);
 Status ParseMatchOptions(const std::string& yaml, const std::string& name, MatchOptions* options);
+
+// The fields of each settings file, bound to `options` (for tools that add flags or embed
+// a section in their own file, like the server's matching: section).
+SettingTable TrainSettingTable(TrainOptions* options);
+SettingTable MatchSettingTable(MatchOptions* options);
 
 // The settings as YAML text, in the same layout the files use (printed by the tools and
 // stored nowhere else: the map file stores the structs themselves).

@@ -1,0 +1,172 @@
+#include "client/client.h"
+
+#include <chrono>
+#include <random>
+#include <zmq.hpp>
+
+namespace sceneloc {
+namespace {
+
+StatusCode EngineCode(v1::StatusCode code) {
+  switch (code) {
+    case v1::INVALID_ARGUMENT:
+      return StatusCode::kInvalidArgument;
+    case v1::NOT_FOUND:
+      return StatusCode::kNotFound;
+    case v1::OVERLOADED:
+    case v1::RESOURCE_EXHAUSTED:
+      return StatusCode::kResourceExhausted;
+    case v1::DATA_LOSS:
+      return StatusCode::kDataLoss;
+    case v1::FAILED_PRECONDITION:
+    case v1::UNAVAILABLE:
+      return StatusCode::kFailedPrecondition;
+    case v1::UNIMPLEMENTED:
+      return StatusCode::kUnimplemented;
+    default:
+      return StatusCode::kInternal;
+  }
+}
+
+class ZmqClient final : public Client {
+ public:
+  ZmqClient(std::string endpoint, const ClientOptions& options)
+      : endpoint_(std::move(endpoint)), options_(options), context_(1) {
+    // Ids start at a random point so replies meant for an earlier client on the same
+    // server connection (there are none today) could never be mistaken for ours.
+    next_id_ = std::random_device()() | 1u;
+  }
+
+  Status Open() {
+    try {
+      socket_ = zmq::socket_t(context_, zmq::socket_type::dealer);
+      socket_.set(zmq::sockopt::linger, 0);
+      socket_.connect(endpoint_);
+    } catch (const zmq::error_t& e) {
+      return InvalidArgument("cannot connect to '" + endpoint_ + "': " + e.what());
+    }
+    return Status::Ok();
+  }
+
+  StatusOr<v1::Reply> Call(v1::Request request) override {
+    request.set_request_id(next_id_++);
+    const std::string bytes = request.SerializeAsString();
+    for (int attempt = 0; attempt <= options_.retries; ++attempt) {
+      if (attempt > 0) SCENELOC_RETURN_IF_ERROR(Open());  // a fresh socket per retry
+      try {
+        socket_.send(zmq::message_t(), zmq::send_flags::sndmore);
+        socket_.send(zmq::buffer(bytes), zmq::send_flags::none);
+        auto reply = AwaitReply(request.request_id());
+        if (reply) return *std::move(reply);
+      } catch (const zmq::error_t& e) {
+        return IoError("ZeroMQ error talking to '" + endpoint_ + "': " + e.what());
+      }
+    }
+    return IoError("no reply from '" + endpoint_ + "' within " +
+                   std::to_string(options_.timeout_ms) + " ms (" +
+                   std::to_string(options_.retries + 1) + " attempts)");
+  }
+
+  StatusOr<v1::LocaliseReply> Localise(const std::string& map, const std::string& jpeg,
+                                       int top_k) override {
+    v1::Request request;
+    request.mutable_localise()->set_map(map);
+    request.mutable_localise()->set_top_k(top_k);
+    request.mutable_localise()->set_jpeg(jpeg);
+    return Typed(std::move(request), &v1::Reply::localise);
+  }
+
+  StatusOr<v1::LocaliseReply> Localise(const std::string& map, const FeatureSet& features,
+                                       DescriptorEncoding encoding, int top_k) override {
+    v1::Request request;
+    request.mutable_localise()->set_map(map);
+    request.mutable_localise()->set_top_k(top_k);
+    EncodeFeatureSet(features, encoding, request.mutable_localise()->mutable_features());
+    return Typed(std::move(request), &v1::Reply::localise);
+  }
+
+  StatusOr<v1::ListMapsReply> ListMaps() override {
+    v1::Request request;
+    request.mutable_list_maps();
+    return Typed(std::move(request), &v1::Reply::list_maps);
+  }
+
+  StatusOr<v1::ReloadMapReply> Reload(const std::string& map) override {
+    v1::Request request;
+    request.mutable_reload_map()->set_map(map);
+    return Typed(std::move(request), &v1::Reply::reload_map);
+  }
+
+  StatusOr<v1::StatsReply> Stats() override {
+    v1::Request request;
+    request.mutable_stats();
+    return Typed(std::move(request), &v1::Reply::stats);
+  }
+
+ private:
+  // Waits for the reply to `id` until the attempt's deadline; replies to other ids
+  // (late answers to an abandoned attempt) are dropped. nullopt on timeout.
+  std::optional<StatusOr<v1::Reply>> AwaitReply(uint64_t id) {
+    using Clock = std::chrono::steady_clock;
+    const auto deadline = Clock::now() + std::chrono::milliseconds(options_.timeout_ms);
+    for (;;) {
+      const auto left =
+          std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now());
+      if (left.count() <= 0) return std::nullopt;
+      zmq::pollitem_t item{socket_.handle(), 0, ZMQ_POLLIN, 0};
+      if (zmq::poll(&item, 1, left) == 0) continue;
+      std::vector<zmq::message_t> frames;
+      bool more = true;
+      while (more) {
+        zmq::message_t frame;
+        if (!socket_.recv(frame, zmq::recv_flags::none)) break;
+        more = frame.more();
+        frames.push_back(std::move(frame));
+      }
+      if (frames.empty()) continue;
+      v1::Reply reply;
+      const zmq::message_t& body = frames.back();
+      if (!reply.ParseFromArray(body.data(), static_cast<int>(body.size()))) {
+        return StatusOr<v1::Reply>(Internal("reply from '" + endpoint_ + "' cannot be parsed"));
+      }
+      if (reply.request_id() == id) return StatusOr<v1::Reply>(std::move(reply));
+    }
+  }
+
+  template <typename T>
+  StatusOr<T> Typed(v1::Request request, const T& (v1::Reply::*field)() const) {
+    SCENELOC_ASSIGN_OR_RETURN(const v1::Reply reply, Call(std::move(request)));
+    if (reply.status() != v1::OK) return ReplyStatus(reply);
+    return (reply.*field)();
+  }
+
+  const std::string endpoint_;
+  const ClientOptions options_;
+  zmq::context_t context_;
+  zmq::socket_t socket_;
+  uint64_t next_id_ = 1;
+};
+
+}  // namespace
+
+Status ClientOptions::Validate() const {
+  if (timeout_ms < 1) return InvalidArgument("timeout_ms must be >= 1");
+  if (retries < 0) return InvalidArgument("retries must be >= 0");
+  return Status::Ok();
+}
+
+Status ReplyStatus(const v1::Reply& reply) {
+  if (reply.status() == v1::OK) return Status::Ok();
+  return Status(EngineCode(reply.status()),
+                v1::StatusCode_Name(reply.status()) + ": " + reply.error());
+}
+
+StatusOr<std::unique_ptr<Client>> Client::Connect(const std::string& endpoint,
+                                                  const ClientOptions& options) {
+  SCENELOC_RETURN_IF_ERROR(options.Validate());
+  auto client = std::make_unique<ZmqClient>(endpoint, options);
+  SCENELOC_RETURN_IF_ERROR(client->Open());
+  return std::unique_ptr<Client>(std::move(client));
+}
+
+}  // namespace sceneloc

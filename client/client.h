@@ -1,0 +1,64 @@
+// sceneloc::Client: the C++ side of the wire protocol (proto/sceneloc.proto) for robots,
+// tools and tests. One DEALER socket to one server; each call sends a request and waits
+// for its reply.
+//
+// Timeouts and retries: a call waits options.timeout_ms for its reply; on a timeout it
+// closes the socket, opens a fresh one and sends the same request again, up to
+// options.retries more times (the Lazy Pirate pattern of the ZeroMQ guide). So a server
+// that restarts between or during calls is survived; every request kind is safe to
+// repeat. Error replies are never retried.
+//
+// Not thread-safe: use one Client per thread (each has its own ZeroMQ context).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "common/features/feature_set.h"
+#include "common/util/status.h"
+#include "proto/sceneloc.pb.h"
+#include "proto/wire.h"
+
+namespace sceneloc {
+
+struct ClientOptions {
+  // How long one attempt waits for its reply, milliseconds (>= 1).
+  int timeout_ms = 5000;
+  // Attempts after the first one timed out, each on a fresh socket (>= 0).
+  int retries = 2;
+
+  Status Validate() const;
+};
+
+class Client {
+ public:
+  virtual ~Client() = default;
+
+  // Connects (lazily, as ZeroMQ does: no server needs to be up yet) to `endpoint`.
+  // Errors: invalid options or a malformed endpoint (InvalidArgument).
+  static StatusOr<std::unique_ptr<Client>> Connect(const std::string& endpoint,
+                                                   const ClientOptions& options = {});
+
+  // Sends `request` (its request_id is overwritten with a fresh one) and returns the
+  // server's reply, whatever its status. Errors: IoError when no reply came after every
+  // attempt; Internal for a reply that cannot be parsed.
+  virtual StatusOr<v1::Reply> Call(v1::Request request) = 0;
+
+  // The typed calls: an error reply becomes a status whose message starts with the wire
+  // status name ("NOT_FOUND: no map named 'x'"), with the nearest engine code.
+  // top_k = 0 asks for the server's default.
+  virtual StatusOr<v1::LocaliseReply> Localise(const std::string& map, const std::string& jpeg,
+                                               int top_k = 0) = 0;
+  virtual StatusOr<v1::LocaliseReply> Localise(
+      const std::string& map, const FeatureSet& features,
+      DescriptorEncoding encoding = DescriptorEncoding::kFloat32, int top_k = 0) = 0;
+  virtual StatusOr<v1::ListMapsReply> ListMaps() = 0;
+  virtual StatusOr<v1::ReloadMapReply> Reload(const std::string& map) = 0;
+  virtual StatusOr<v1::StatsReply> Stats() = 0;
+};
+
+// The engine status for a non-OK wire reply: "<STATUS>: <error>".
+Status ReplyStatus(const v1::Reply& reply);
+
+}  // namespace sceneloc

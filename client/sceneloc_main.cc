@@ -1,0 +1,207 @@
+// sceneloc: the command-line client.
+//   sceneloc localise --server EP --map NAME IMAGE...           one answer line per image
+//   sceneloc localise --server EP --map NAME --features FILE...  feature sets instead
+//   sceneloc extract IMAGE --out FILE [--config train.yaml] [--image-scale S] [--uint8]
+//   sceneloc maps --server EP          sceneloc reload --server EP --map NAME
+//   sceneloc stats --server EP
+// Exit status: 0 when every request was answered OK, 1 when any got an error reply or
+// none at all, 2 for bad arguments or unreadable files.
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+#include "client/client.h"
+#include "common/config/config.h"
+#include "common/features/extractor.h"
+
+namespace {
+
+using sceneloc::Status;
+using sceneloc::StatusOr;
+namespace v1 = sceneloc::v1;
+
+StatusOr<std::string> ReadFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return sceneloc::NotFound("cannot read '" + path + "'");
+  std::ostringstream bytes;
+  bytes << in.rdbuf();
+  return bytes.str();
+}
+
+void PrintAnswer(const std::string& query, const v1::LocaliseReply& r) {
+  if (r.locations().empty()) {
+    std::printf("%s\tno match\tmap %s@%llu\n", query.c_str(), r.map().name().c_str(),
+                static_cast<unsigned long long>(r.map().generation()));
+    return;
+  }
+  const v1::RankedLocation& best = r.locations(0);
+  std::printf("%s\t%d\t%s\tlikelihood %.4f\tconfidence %.3f\tmap %s@%llu\t%.1f ms\n", query.c_str(),
+              best.index(), best.image_name().c_str(), best.likelihood(), r.confidence(),
+              r.map().name().c_str(), static_cast<unsigned long long>(r.map().generation()),
+              r.timings().total_ms());
+}
+
+StatusOr<std::unique_ptr<sceneloc::Client>> Connect(const std::string& server, int timeout_ms) {
+  sceneloc::ClientOptions options;
+  options.timeout_ms = timeout_ms;
+  return sceneloc::Client::Connect(server, options);
+}
+
+// Localises each input (a JPEG or a feature-set file); returns the exit status.
+int RunLocalise(sceneloc::Client* client, const std::string& map,
+                const std::vector<std::string>& inputs, bool features, int top_k) {
+  int status = 0;
+  for (const std::string& input : inputs) {
+    auto bytes = ReadFile(input);
+    if (!bytes.ok()) {
+      std::fprintf(stderr, "sceneloc: %s\n", bytes.status().message().c_str());
+      return 2;
+    }
+    StatusOr<v1::LocaliseReply> reply = sceneloc::InvalidArgument("unreachable");
+    if (features) {
+      v1::Request request;
+      request.mutable_localise()->set_map(map);
+      request.mutable_localise()->set_top_k(top_k);
+      if (!request.mutable_localise()->mutable_features()->ParseFromString(*bytes)) {
+        std::fprintf(stderr, "sceneloc: '%s' is not a feature-set file\n", input.c_str());
+        return 2;
+      }
+      auto raw = client->Call(std::move(request));
+      reply = !raw.ok()                 ? StatusOr<v1::LocaliseReply>(raw.status())
+              : raw->status() != v1::OK ? StatusOr<v1::LocaliseReply>(sceneloc::ReplyStatus(*raw))
+                                        : StatusOr<v1::LocaliseReply>(raw->localise());
+    } else {
+      reply = client->Localise(map, *bytes, top_k);
+    }
+    if (!reply.ok()) {
+      std::printf("%s\terror\t%s\n", input.c_str(), reply.status().message().c_str());
+      status = 1;
+      continue;
+    }
+    PrintAnswer(input, *reply);
+  }
+  return status;
+}
+
+int RunExtract(const std::string& image_path, const std::string& out_path,
+               const std::string& config, double image_scale, bool uint8) {
+  sceneloc::TrainOptions options;
+  if (!config.empty()) {
+    const Status s = sceneloc::LoadTrainOptions(config, &options);
+    if (!s.ok()) {
+      std::fprintf(stderr, "sceneloc: %s\n", s.message().c_str());
+      return 2;
+    }
+  }
+  if (image_scale > 0) options.extractor.image_scale = image_scale;
+  if (const Status s = options.extractor.Validate(); !s.ok()) {
+    std::fprintf(stderr, "sceneloc: %s\n", s.message().c_str());
+    return 2;
+  }
+  auto image = sceneloc::ReadImageFile(image_path);
+  if (!image.ok()) {
+    std::fprintf(stderr, "sceneloc: %s\n", image.status().message().c_str());
+    return 2;
+  }
+  auto features = sceneloc::FeatureExtractor::Create(options.extractor)->Extract(*image);
+  if (!features.ok()) {
+    std::fprintf(stderr, "sceneloc: %s: %s\n", image_path.c_str(),
+                 features.status().message().c_str());
+    return 1;
+  }
+  v1::FeatureSet wire;
+  sceneloc::EncodeFeatureSet(
+      *features,
+      uint8 ? sceneloc::DescriptorEncoding::kUint8 : sceneloc::DescriptorEncoding::kFloat32, &wire);
+  std::ofstream out(out_path, std::ios::binary);
+  if (!out || !wire.SerializeToOstream(&out)) {
+    std::fprintf(stderr, "sceneloc: cannot write '%s'\n", out_path.c_str());
+    return 2;
+  }
+  std::printf("%s: %d features (%dx%d) -> %s\n", image_path.c_str(), features->size(),
+              features->image_width, features->image_height, out_path.c_str());
+  return 0;
+}
+
+void PrintMaps(const google::protobuf::RepeatedPtrField<v1::MapInfo>& maps) {
+  for (const v1::MapInfo& m : maps) {
+    std::printf("%s\tgeneration %llu\tchecksum %08x\t%d locations\t%d landmarks\t%.1f MB\t%s\n",
+                m.version().name().c_str(),
+                static_cast<unsigned long long>(m.version().generation()), m.version().checksum(),
+                m.num_locations(), m.num_landmarks(), static_cast<double>(m.memory_bytes()) / 1e6,
+                m.loaded_utc().c_str());
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"sceneloc: client of sceneloc-server"};
+  app.require_subcommand(1);
+  std::string server, map, out, config;
+  std::vector<std::string> inputs;
+  bool features = false, uint8 = false;
+  int top_k = 0, timeout_ms = 10000;
+  double image_scale = 0;
+
+  CLI::App* localise = app.add_subcommand("localise", "localise images (or feature sets)");
+  localise->add_option("--server", server, "server endpoint, e.g. tcp://localhost:5555")
+      ->required();
+  localise->add_option("--map", map, "map name")->required();
+  localise->add_flag("--features", features, "the inputs are feature-set files (sceneloc extract)");
+  localise->add_option("--top-k", top_k, "ranked locations wanted (0 = server default)");
+  localise->add_option("--timeout-ms", timeout_ms, "per attempt");
+  localise->add_option("inputs", inputs, "JPEG images, or feature-set files with --features")
+      ->required();
+
+  CLI::App* extract = app.add_subcommand("extract", "compute an image's feature set locally");
+  extract->add_option("image", inputs, "image file")->required()->expected(1);
+  extract->add_option("--out", out, "feature-set file to write")->required();
+  extract->add_option("--config", config, "training settings whose extractor: section to use");
+  extract->add_option("--image-scale", image_scale, "override extractor.image_scale (0, 1]");
+  extract->add_flag("--uint8", uint8, "store descriptors as uint8 (4x smaller)");
+
+  CLI::App* maps = app.add_subcommand("maps", "list the server's maps");
+  CLI::App* reload = app.add_subcommand("reload", "reload a map from the server's maps folder");
+  CLI::App* stats = app.add_subcommand("stats", "the server's counters");
+  for (CLI::App* sub : {maps, reload, stats}) {
+    sub->add_option("--server", server, "server endpoint")->required();
+    sub->add_option("--timeout-ms", timeout_ms, "per attempt");
+  }
+  reload->add_option("--map", map, "map name")->required();
+  CLI11_PARSE(app, argc, argv);
+
+  if (extract->parsed()) return RunExtract(inputs[0], out, config, image_scale, uint8);
+  auto client = Connect(server, timeout_ms);
+  if (!client.ok()) {
+    std::fprintf(stderr, "sceneloc: %s\n", client.status().message().c_str());
+    return 2;
+  }
+  if (localise->parsed()) return RunLocalise(client->get(), map, inputs, features, top_k);
+  if (maps->parsed()) {
+    auto reply = (*client)->ListMaps();
+    if (!reply.ok()) {
+      std::fprintf(stderr, "sceneloc: %s\n", reply.status().message().c_str());
+      return 1;
+    }
+    PrintMaps(reply->maps());
+    return 0;
+  }
+  if (reload->parsed()) {
+    auto reply = (*client)->Reload(map);
+    if (!reply.ok()) {
+      std::fprintf(stderr, "sceneloc: %s\n", reply.status().message().c_str());
+      return 1;
+    }
+    PrintMaps(google::protobuf::RepeatedPtrField<v1::MapInfo>(&reply->map(), &reply->map() + 1));
+    return 0;
+  }
+  auto reply = (*client)->Stats();
+  if (!reply.ok()) {
+    std::fprintf(stderr, "sceneloc: %s\n", reply.status().message().c_str());
+    return 1;
+  }
+  std::printf("%s", reply->DebugString().c_str());
+  return 0;
+}

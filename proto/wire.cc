@@ -1,0 +1,155 @@
+#include "proto/wire.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "common/matching/localiser.h"
+
+namespace sceneloc {
+namespace {
+
+// A unit descriptor from the extractor has norm 1 within float rounding; a row scaled
+// by mistake (e.g. raw 0..255 floats) is far off.
+constexpr float kNormTolerance = 0.01f;
+
+void EncodeMatrix(const DescriptorMatrix& m, DescriptorEncoding encoding,
+                  v1::DescriptorMatrix* out) {
+  out->Clear();
+  const size_t n = static_cast<size_t>(m.size());
+  if (encoding == DescriptorEncoding::kFloat32) {
+    out->mutable_float32()->Add(m.data(), m.data() + n);
+    return;
+  }
+  std::string* bytes = out->mutable_uint8();
+  bytes->resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    const float v = std::clamp(std::round(512.0f * m.data()[i]), 0.0f, 255.0f);
+    (*bytes)[i] = static_cast<char>(static_cast<uint8_t>(v));
+  }
+}
+
+Status CheckUnitRows(const DescriptorMatrix& m, const char* which) {
+  for (Eigen::Index i = 0; i < m.rows(); ++i) {
+    const float norm = m.row(i).norm();
+    if (norm != 0.0f && std::abs(norm - 1.0f) > kNormTolerance) {
+      return InvalidArgument(std::string(which) + " descriptor " + std::to_string(i) +
+                             " has norm " + std::to_string(norm) +
+                             "; float32 descriptors must be L2-normalised");
+    }
+  }
+  return Status::Ok();
+}
+
+// Fills `out` (n rows) from either encoding; the length is checked first.
+Status DecodeMatrix(const v1::DescriptorMatrix& wire, int n, const char* which,
+                    DescriptorMatrix* out) {
+  const size_t want = static_cast<size_t>(n) * kDescriptorSize;
+  const size_t floats = static_cast<size_t>(wire.float32_size());
+  const size_t bytes = wire.uint8().size();
+  if (floats != 0 && bytes != 0) {
+    return InvalidArgument(std::string(which) + " descriptors are set as both float32 and uint8");
+  }
+  const size_t got = floats != 0 ? floats : bytes;
+  if (got != want) {
+    return InvalidArgument(std::string(which) + " descriptors hold " + std::to_string(got) +
+                           " values; " + std::to_string(n) + " keypoints need " +
+                           std::to_string(want) + " (128 each)");
+  }
+  out->resize(n, kDescriptorSize);
+  if (floats != 0) {
+    std::copy(wire.float32().begin(), wire.float32().end(), out->data());
+    return Status::Ok();
+  }
+  const auto* raw = reinterpret_cast<const uint8_t*>(wire.uint8().data());
+  for (size_t i = 0; i < want; ++i) out->data()[i] = static_cast<float>(raw[i]);
+  for (Eigen::Index i = 0; i < out->rows(); ++i) {
+    const float norm = out->row(i).norm();
+    if (norm > 0) out->row(i) /= norm;
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status FeatureSetLimits::Validate() const {
+  if (max_keypoints < 1) return InvalidArgument("max_keypoints must be >= 1");
+  if (max_image_side < 16) return InvalidArgument("max_image_side must be >= 16");
+  return Status::Ok();
+}
+
+void EncodeFeatureSet(const FeatureSet& features, DescriptorEncoding encoding,
+                      v1::FeatureSet* out) {
+  out->Clear();
+  out->set_image_width(features.image_width);
+  out->set_image_height(features.image_height);
+  out->mutable_keypoints()->Reserve(features.size());
+  for (const Keypoint& k : features.keypoints) {
+    v1::Keypoint* w = out->add_keypoints();
+    w->set_x(k.x);
+    w->set_y(k.y);
+    w->set_size(k.size);
+    w->set_angle(k.angle);
+    w->set_response(k.response);
+    w->set_octave(k.octave);
+  }
+  EncodeMatrix(features.local, encoding, out->mutable_local());
+  EncodeMatrix(features.context, encoding, out->mutable_context());
+}
+
+StatusOr<FeatureSet> DecodeFeatureSet(const v1::FeatureSet& wire, const FeatureSetLimits& limits) {
+  const int n = wire.keypoints_size();
+  if (n > limits.max_keypoints) {
+    return ResourceExhausted("feature set has " + std::to_string(n) + " keypoints; at most " +
+                             std::to_string(limits.max_keypoints) + " are accepted");
+  }
+  if (wire.image_width() <= 0 || wire.image_height() <= 0) {
+    return InvalidArgument("feature set image size must be positive");
+  }
+  if (wire.image_width() > limits.max_image_side || wire.image_height() > limits.max_image_side) {
+    return ResourceExhausted("feature set image is larger than " +
+                             std::to_string(limits.max_image_side) + " pixels per side");
+  }
+  FeatureSet f;
+  f.image_width = wire.image_width();
+  f.image_height = wire.image_height();
+  f.keypoints.resize(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    const v1::Keypoint& k = wire.keypoints(i);
+    f.keypoints[static_cast<size_t>(i)] = {k.x(),     k.y(),        k.size(),
+                                           k.angle(), k.response(), k.octave()};
+  }
+  SCENELOC_RETURN_IF_ERROR(DecodeMatrix(wire.local(), n, "local", &f.local));
+  SCENELOC_RETURN_IF_ERROR(DecodeMatrix(wire.context(), n, "context", &f.context));
+  SCENELOC_RETURN_IF_ERROR(ValidateFeatureSet(f));
+  if (wire.local().float32_size() != 0) SCENELOC_RETURN_IF_ERROR(CheckUnitRows(f.local, "local"));
+  if (wire.context().float32_size() != 0) {
+    SCENELOC_RETURN_IF_ERROR(CheckUnitRows(f.context, "context"));
+  }
+  return f;
+}
+
+v1::StatusCode ToWireCode(StatusCode code) {
+  switch (code) {
+    case StatusCode::kOk:
+      return v1::OK;
+    case StatusCode::kInvalidArgument:
+      return v1::INVALID_ARGUMENT;
+    case StatusCode::kNotFound:
+      return v1::NOT_FOUND;
+    case StatusCode::kDataLoss:
+      return v1::DATA_LOSS;
+    case StatusCode::kFailedPrecondition:
+      return v1::FAILED_PRECONDITION;
+    case StatusCode::kUnimplemented:
+      return v1::UNIMPLEMENTED;
+    case StatusCode::kResourceExhausted:
+      return v1::RESOURCE_EXHAUSTED;
+    case StatusCode::kInternal:
+    case StatusCode::kIoError:
+      return v1::INTERNAL;
+  }
+  return v1::INTERNAL;
+}
+
+}  // namespace sceneloc

@@ -1,0 +1,41 @@
+// Conversions between the wire messages (proto/sceneloc.proto) and the engine's types,
+// shared by the server and the client. Decoding treats its input as untrusted: every
+// count, length and number is checked before anything is allocated from it.
+//
+// Thread-safe: free functions without shared state.
+#pragma once
+
+#include "common/features/feature_set.h"
+#include "common/util/status.h"
+#include "proto/sceneloc.pb.h"
+
+namespace sceneloc {
+
+// Caps on a feature set from the network.
+struct FeatureSetLimits {
+  // Most keypoints a feature set may carry (the extractor's default cap is 1000).
+  int max_keypoints = 8192;
+  // Largest image width or height a feature set may claim, pixels.
+  int max_image_side = 8192;
+
+  Status Validate() const;
+};
+
+// How descriptors travel. float32 is exact; uint8 is a quarter of the size and loses
+// ~0.2% of a descriptor's norm to rounding.
+enum class DescriptorEncoding { kFloat32, kUint8 };
+
+// Writes `features` into `out` (replacing its content). uint8 stores round(512 * v)
+// clamped to 255 per value, OpenCV's SIFT scale for unit descriptors.
+void EncodeFeatureSet(const FeatureSet& features, DescriptorEncoding encoding, v1::FeatureSet* out);
+
+// Reads a feature set from the wire. Errors: InvalidArgument for a wrong descriptor
+// length, both or neither encoding set, a float32 row that is not unit-norm (or zero), a
+// non-finite number, a bad image size; ResourceExhausted for more keypoints or a larger
+// image than `limits` allow. uint8 rows are L2-normalised; float32 rows are used as sent.
+StatusOr<FeatureSet> DecodeFeatureSet(const v1::FeatureSet& wire, const FeatureSetLimits& limits);
+
+// The wire status for an engine status code (kOk -> OK).
+v1::StatusCode ToWireCode(StatusCode code);
+
+}  // namespace sceneloc

@@ -1,0 +1,54 @@
+#include "server/jpeg_header.h"
+
+#include <cstdint>
+#include <string>
+
+namespace sceneloc {
+namespace {
+
+uint8_t At(std::string_view b, size_t i) { return static_cast<uint8_t>(b[i]); }
+int Be16(std::string_view b, size_t i) { return (At(b, i) << 8) | At(b, i + 1); }
+
+// Start-of-frame markers carry the image size; C4 (DHT), C8 (JPG) and CC (DAC) share the
+// range but are not frames.
+bool IsStartOfFrame(uint8_t marker) {
+  return marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 && marker != 0xC8 && marker != 0xCC;
+}
+
+// Markers without a length field: TEM and RST0..RST7.
+bool IsStandalone(uint8_t marker) { return marker == 0x01 || (marker >= 0xD0 && marker <= 0xD7); }
+
+}  // namespace
+
+StatusOr<JpegDimensions> ReadJpegDimensions(std::string_view b) {
+  if (b.size() < 4 || At(b, 0) != 0xFF || At(b, 1) != 0xD8) {
+    return InvalidArgument("image is not a JPEG (no start-of-image marker)");
+  }
+  size_t pos = 2;
+  while (pos < b.size()) {
+    if (At(b, pos) != 0xFF) return InvalidArgument("JPEG header is corrupt (expected a marker)");
+    while (pos < b.size() && At(b, pos) == 0xFF) ++pos;  // fill bytes
+    if (pos >= b.size()) break;
+    const uint8_t marker = At(b, pos++);
+    if (IsStandalone(marker)) continue;
+    if (marker == 0xD9 || marker == 0xDA) break;  // end of image or start of scan: no frame
+    if (pos + 2 > b.size()) break;
+    const size_t length = static_cast<size_t>(Be16(b, pos));
+    if (length < 2 || pos + length > b.size()) break;
+    if (IsStartOfFrame(marker)) {
+      if (length < 8) return InvalidArgument("JPEG frame header is too short");
+      JpegDimensions d;
+      d.height = Be16(b, pos + 3);
+      d.width = Be16(b, pos + 5);
+      d.components = At(b, pos + 7);
+      if (d.width == 0 || d.height == 0) {
+        return InvalidArgument("JPEG frame header gives a zero width or height");
+      }
+      return d;
+    }
+    pos += length;
+  }
+  return InvalidArgument("JPEG is truncated or corrupt: no frame header before the image data");
+}
+
+}  // namespace sceneloc

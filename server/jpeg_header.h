@@ -1,0 +1,25 @@
+// Reads a JPEG's dimensions from its header without decoding it, so the server can refuse
+// a huge image before cv::imdecode allocates width x height x 3 bytes for it.
+//
+// Thread-safe: a pure function.
+#pragma once
+
+#include <string_view>
+
+#include "common/util/status.h"
+
+namespace sceneloc {
+
+struct JpegDimensions {
+  int width = 0;
+  int height = 0;
+  int components = 0;  // 1 (grey) or 3 (colour), as the frame header says
+};
+
+// Walks the marker segments from SOI to the first start-of-frame (SOF0..SOF15 except
+// DHT, JPG and DAC) and returns its size. Errors (InvalidArgument): not a JPEG, a
+// segment running past the end, no frame header before the scan, a zero dimension (a
+// DNL-defined height is refused too). Never reads outside `bytes`.
+StatusOr<JpegDimensions> ReadJpegDimensions(std::string_view bytes);
+
+}  // namespace sceneloc

@@ -1,0 +1,97 @@
+// The server's maps: name -> the loaded map snapshot now serving under that name.
+//
+// A request takes its snapshot once (Get) and uses only it, so a reload or a removal
+// never changes a map under a running request: the old snapshot lives until the last
+// request holding it finishes (DESIGN.md "The daemon"; LevelDB pins its version per read
+// the same way).
+//
+// Loading reads, checksums and validates the whole file (LoadMap) and then runs a
+// self-test query built from the map's own landmarks, all without holding the registry
+// lock; only the final pointer swap is under it. A failed load changes nothing.
+//
+// Thread-safe: every method may be called from any thread.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "common/features/extractor.h"
+#include "common/map/map.h"
+#include "common/matching/localiser.h"
+#include "common/util/status.h"
+
+namespace sceneloc {
+
+// File extension of the map files a server loads from its maps directory.
+inline constexpr char kMapFileExtension[] = ".scnl";
+
+// One immutable map snapshot and what identifies it.
+struct LoadedMap {
+  std::string name;         // the file stem
+  std::string path;         // the file it was loaded from
+  uint64_t generation = 0;  // 1 on the first load of this name, +1 on each later load
+  uint32_t checksum = 0;    // MapFileInfo::checksum: the content's CRC-32
+  std::chrono::system_clock::time_point loaded_at;
+  Map map;  // Validate()d and Finalize()d
+  // Extracts query features exactly as the map's tour was extracted (its own settings).
+  std::unique_ptr<FeatureExtractor> extractor;
+};
+
+class MapRegistry {
+ public:
+  struct Options {
+    // Settings of the self-test query run on every map before it is swapped in.
+    MatchOptions self_test;
+    // Tour locations probed by the self-test (spread over the tour), 0 = none.
+    int self_test_locations = 3;
+  };
+
+  explicit MapRegistry(const Options& options);
+
+  // The snapshot serving `name`, or null when there is none.
+  std::shared_ptr<const LoadedMap> Get(const std::string& name) const;
+  // Every snapshot, by name.
+  std::vector<std::shared_ptr<const LoadedMap>> List() const;
+
+  // Loads `path` and serves it as its file stem, replacing any map of that name. Errors
+  // (the old map, if any, keeps serving): those of LoadMap, FailedPrecondition when the
+  // self-test fails, InvalidArgument for a name that is not a plain file stem.
+  // Loads of one registry run one at a time, so generations follow the swaps' order.
+  StatusOr<std::shared_ptr<const LoadedMap>> Load(const std::string& path);
+
+  // Stops serving `name`; requests holding its snapshot finish on it. False when absent.
+  bool Remove(const std::string& name);
+
+  // Loads every *.scnl file in `dir` (in name order). Each failure is appended to
+  // *failures (which may be null) and does not stop the others. Error only when `dir`
+  // cannot be listed.
+  Status LoadDirectory(const std::string& dir, std::vector<Status>* failures);
+
+  uint64_t loads() const;          // successful loads so far
+  uint64_t load_failures() const;  // failed loads so far
+
+ private:
+  Status SelfTest(const Map& map) const;
+
+  const Options options_;
+  std::mutex load_mutex_;  // serialises Load() calls; never held by Get()
+
+  mutable std::mutex mutex_;
+  // Guarded by mutex_.
+  std::map<std::string, std::shared_ptr<const LoadedMap>> maps_;
+  std::map<std::string, uint64_t> generations_;  // kept after Remove, so numbers only grow
+  uint64_t loads_ = 0;
+  uint64_t load_failures_ = 0;
+};
+
+// A feature set made from the landmarks tour image `location` holds: each landmark's mean
+// descriptors at its position in that image. Localising it must find `location` (or a
+// neighbour sharing its landmarks) if the map is sound. REQUIRES: 0 <= location < images.
+FeatureSet SelfTestFeatures(const Map& map, int location);
+
+}  // namespace sceneloc

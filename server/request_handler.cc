@@ -1,0 +1,208 @@
+#include "server/request_handler.h"
+
+#include <ctime>
+#include <exception>
+#include <filesystem>
+
+#include "common/util/timer.h"
+#include "proto/wire.h"
+#include "server/jpeg_header.h"
+
+namespace sceneloc {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double MsSince(Clock::time_point t) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
+}
+
+std::string IsoUtc(std::chrono::system_clock::time_point t) {
+  const std::time_t seconds = std::chrono::system_clock::to_time_t(t);
+  std::tm tm{};
+  gmtime_r(&seconds, &tm);
+  char text[32];
+  std::strftime(text, sizeof(text), "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return text;
+}
+
+// A map name is a plain file stem: it must not reach outside the maps directory.
+bool IsPlainName(const std::string& name) {
+  if (name.empty() || name.size() > 255 || name[0] == '.') return false;
+  for (const char c : name) {
+    const bool ok = std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.';
+    if (!ok) return false;
+  }
+  return true;
+}
+
+// Checks a JPEG's header against the limits, then decodes and extracts it.
+StatusOr<FeatureSet> ExtractJpeg(const std::string& jpeg, const LoadedMap& map,
+                                 const RequestLimits& limits, v1::Timings* timings) {
+  Stopwatch watch;
+  SCENELOC_ASSIGN_OR_RETURN(const JpegDimensions dims, ReadJpegDimensions(jpeg));
+  if (dims.width > limits.max_image_side || dims.height > limits.max_image_side ||
+      static_cast<int64_t>(dims.width) * dims.height > limits.max_image_pixels) {
+    return ResourceExhausted("JPEG is " + std::to_string(dims.width) + "x" +
+                             std::to_string(dims.height) + "; the server accepts at most " +
+                             std::to_string(limits.max_image_side) + " pixels per side and " +
+                             std::to_string(limits.max_image_pixels) + " pixels");
+  }
+  SCENELOC_ASSIGN_OR_RETURN(const cv::Mat image, DecodeImage(jpeg, limits.max_image_side));
+  timings->set_decode_ms(watch.Milliseconds());
+  watch.Reset();
+  auto features = map.extractor->Extract(image);
+  timings->set_extract_ms(watch.Milliseconds());
+  return features;
+}
+
+void FillResult(const LocaliseResult& result, const LoadedMap& map, v1::LocaliseReply* reply) {
+  for (const RankedLocation& r : result.ranked) {
+    v1::RankedLocation* out = reply->add_locations();
+    out->set_index(r.index);
+    out->set_image_name(r.image_name);
+    out->set_likelihood(r.likelihood);
+    out->set_inliers(r.inliers);
+  }
+  reply->set_confidence(result.confidence);
+  reply->mutable_map()->set_name(map.name);
+  reply->mutable_map()->set_generation(map.generation);
+  reply->mutable_map()->set_checksum(map.checksum);
+  reply->set_descriptor_matches(result.descriptor_matches);
+  v1::Timings* t = reply->mutable_timings();
+  t->set_descriptor_ms(result.timings.descriptor_ms);
+  t->set_neighbourhood_ms(result.timings.neighbourhood_ms);
+  t->set_likelihood_ms(result.timings.likelihood_ms);
+  t->set_verify_ms(result.timings.verify_ms);
+}
+
+}  // namespace
+
+void FillMapInfo(const LoadedMap& map, v1::MapInfo* info) {
+  info->mutable_version()->set_name(map.name);
+  info->mutable_version()->set_generation(map.generation);
+  info->mutable_version()->set_checksum(map.checksum);
+  info->set_path(map.path);
+  info->set_num_locations(map.map.num_images());
+  info->set_num_landmarks(map.map.num_landmarks());
+  info->set_memory_bytes(map.map.MemoryBytes());
+  info->set_loaded_utc(IsoUtc(map.loaded_at));
+}
+
+RequestHandler::RequestHandler(const ServerOptions& options, MapRegistry* registry,
+                               ThreadPool* pool, const ServerStats* stats)
+    : options_(options), registry_(registry), pool_(pool), stats_(stats) {}
+
+bool RequestHandler::IsCheap(const v1::Request& request) {
+  return request.kind_case() == v1::Request::kStats ||
+         request.kind_case() == v1::Request::kListMaps;
+}
+
+void RequestHandler::Handle(const v1::Request& request, Clock::time_point received,
+                            v1::Reply* reply) const {
+  reply->Clear();
+  reply->set_request_id(request.request_id());
+  Status status;
+  try {
+    switch (request.kind_case()) {
+      case v1::Request::kLocalise:
+        status = HandleLocalise(request.localise(), received, reply->mutable_localise());
+        break;
+      case v1::Request::kListMaps:
+        HandleListMaps(reply->mutable_list_maps());
+        break;
+      case v1::Request::kReloadMap:
+        status = HandleReload(request.reload_map(), reply->mutable_reload_map());
+        break;
+      case v1::Request::kStats:
+        HandleStats(reply->mutable_stats());
+        break;
+      case v1::Request::KIND_NOT_SET:
+        status = InvalidArgument("request has no kind set (or one this server does not know)");
+        break;
+    }
+  } catch (const std::exception& e) {
+    status = Internal(std::string("unexpected exception: ") + e.what());
+  } catch (...) {
+    status = Internal("unexpected exception");
+  }
+  if (!status.ok()) {
+    reply->clear_kind();
+    reply->set_status(ToWireCode(status.code()));
+    reply->set_error(status.message());
+  }
+}
+
+Status RequestHandler::HandleLocalise(const v1::LocaliseRequest& request,
+                                      Clock::time_point received, v1::LocaliseReply* reply) const {
+  v1::Timings timings;
+  timings.set_queue_ms(MsSince(received));
+  if (request.top_k() < 0 || request.top_k() > options_.limits.max_top_k) {
+    return InvalidArgument("top_k must be in [0, " + std::to_string(options_.limits.max_top_k) +
+                           "] (0 = the server's default)");
+  }
+  // The one snapshot this request uses from here to its reply.
+  const std::shared_ptr<const LoadedMap> map = registry_->Get(request.map());
+  if (map == nullptr) return NotFound("no map named '" + request.map() + "'");
+
+  StatusOr<FeatureSet> features = InvalidArgument("localise request carries no query");
+  if (request.query_case() == v1::LocaliseRequest::kJpeg) {
+    features = ExtractJpeg(request.jpeg(), *map, options_.limits, &timings);
+  } else if (request.query_case() == v1::LocaliseRequest::kFeatures) {
+    Stopwatch watch;
+    features = DecodeFeatureSet(request.features(),
+                                {options_.limits.max_keypoints, options_.limits.max_image_side});
+    timings.set_extract_ms(watch.Milliseconds());
+  }
+  if (!features.ok()) return features.status();
+
+  MatchOptions match = options_.matching;
+  if (request.top_k() > 0) match.top_k = request.top_k();
+  SCENELOC_ASSIGN_OR_RETURN(const LocaliseResult result,
+                            Localise(*features, map->map, match, pool_));
+  FillResult(result, *map, reply);
+  reply->set_num_features(static_cast<uint32_t>(features->size()));
+  v1::Timings* t = reply->mutable_timings();
+  t->set_queue_ms(timings.queue_ms());
+  t->set_decode_ms(timings.decode_ms());
+  t->set_extract_ms(timings.extract_ms());
+  t->set_total_ms(MsSince(received));
+  return Status::Ok();
+}
+
+Status RequestHandler::HandleReload(const v1::ReloadMapRequest& request,
+                                    v1::ReloadMapReply* reply) const {
+  if (!IsPlainName(request.map())) {
+    return InvalidArgument("'" + request.map() + "' is not a map name (a plain file stem)");
+  }
+  const std::string path =
+      (std::filesystem::path(options_.maps_dir) / (request.map() + kMapFileExtension)).string();
+  SCENELOC_ASSIGN_OR_RETURN(const auto loaded, registry_->Load(path));
+  FillMapInfo(*loaded, reply->mutable_map());
+  return Status::Ok();
+}
+
+void RequestHandler::HandleListMaps(v1::ListMapsReply* reply) const {
+  for (const auto& map : registry_->List()) FillMapInfo(*map, reply->add_maps());
+}
+
+void RequestHandler::HandleStats(v1::StatsReply* reply) const {
+  const StatsSnapshot s = stats_->Snapshot();
+  reply->set_uptime_s(s.uptime_s);
+  reply->set_requests(s.requests);
+  reply->set_in_flight(s.in_flight);
+  for (const auto& [status, count] : s.replies_by_status) {
+    (*reply->mutable_replies_by_status())[status] = count;
+  }
+  v1::LatencySummary* latency = reply->mutable_localise_latency_ms();
+  latency->set_count(s.latency_count);
+  latency->set_p50(s.latency_p50_ms);
+  latency->set_p90(s.latency_p90_ms);
+  latency->set_p99(s.latency_p99_ms);
+  latency->set_max(s.latency_max_ms);
+  reply->set_map_loads(registry_->loads());
+  reply->set_map_load_failures(registry_->load_failures());
+  for (const auto& map : registry_->List()) FillMapInfo(*map, reply->add_maps());
+}
+
+}  // namespace sceneloc

@@ -1,0 +1,56 @@
+// One parsed request in, its reply out: the work behind the socket, without ZeroMQ (so
+// it is tested directly). Every failure a client can cause becomes an error reply with
+// its status and a readable message; no input makes Handle throw or crash.
+//
+//   localise:  map snapshot (NOT_FOUND) -> JPEG header check -> decode -> extract with the
+//              map's settings   |  or: decode + check the feature set
+//              -> Localise (common/matching/localiser.h) -> ranked locations, timings
+//   list_maps, stats:  read the registry and the counters
+//   reload_map:        MapRegistry::Load of <maps_dir>/<name>.scnl
+//
+// Thread-safe: Handle may run on any number of threads at once.
+#pragma once
+
+#include <chrono>
+
+#include "common/util/thread_pool.h"
+#include "proto/sceneloc.pb.h"
+#include "server/map_registry.h"
+#include "server/server_options.h"
+#include "server/server_stats.h"
+
+namespace sceneloc {
+
+class RequestHandler {
+ public:
+  // The pointees must outlive the handler. `pool` (may be null) splits one request's
+  // scoring when it has idle threads.
+  RequestHandler(const ServerOptions& options, MapRegistry* registry, ThreadPool* pool,
+                 const ServerStats* stats);
+
+  // Fills `reply` (cleared first) for `request`, which arrived at `received`.
+  void Handle(const v1::Request& request, std::chrono::steady_clock::time_point received,
+              v1::Reply* reply) const;
+
+  // True for requests cheap enough to answer on the I/O thread (stats, list_maps), so a
+  // health check is answered even when every worker is busy.
+  static bool IsCheap(const v1::Request& request);
+
+ private:
+  Status HandleLocalise(const v1::LocaliseRequest& request,
+                        std::chrono::steady_clock::time_point received,
+                        v1::LocaliseReply* reply) const;
+  Status HandleReload(const v1::ReloadMapRequest& request, v1::ReloadMapReply* reply) const;
+  void HandleListMaps(v1::ListMapsReply* reply) const;
+  void HandleStats(v1::StatsReply* reply) const;
+
+  const ServerOptions options_;
+  MapRegistry* const registry_;
+  ThreadPool* const pool_;
+  const ServerStats* const stats_;
+};
+
+// Writes what identifies and describes a loaded map.
+void FillMapInfo(const LoadedMap& map, v1::MapInfo* info);
+
+}  // namespace sceneloc

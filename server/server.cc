@@ -1,0 +1,394 @@
+#include "server/server.h"
+
+#include <spdlog/spdlog.h>
+
+#include <atomic>
+#include <chrono>
+#include <mutex>
+#include <optional>
+#include <thread>
+#include <vector>
+#include <zmq.hpp>
+
+#include "common/util/thread_pool.h"
+#include "proto/sceneloc.pb.h"
+#include "server/bounded_queue.h"
+#include "server/request_handler.h"
+#include "server/server_stats.h"
+
+namespace sceneloc {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+constexpr char kRepliesEndpoint[] = "inproc://sceneloc-replies";
+constexpr char kControlEndpoint[] = "inproc://sceneloc-control";
+// Identity + empty delimiter + request is the most a valid request has.
+constexpr size_t kMaxFrames = 3;
+// How long closing the ROUTER may keep trying to deliver the last replies.
+constexpr int kLingerMs = 1000;
+
+// A request waiting for (or held by) a worker.
+struct Job {
+  zmq::message_t identity;
+  bool delimited = false;  // the request had the empty delimiter frame; the reply gets one
+  v1::Request request;
+  Clock::time_point received;
+};
+
+// One request as read off the ROUTER.
+struct Incoming {
+  zmq::message_t identity;
+  bool delimited = false;
+  zmq::message_t payload;
+  size_t frames = 0;
+  size_t bytes = 0;
+};
+
+double MsSince(Clock::time_point t) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
+}
+
+const char* KindName(const v1::Request& r) {
+  switch (r.kind_case()) {
+    case v1::Request::kLocalise:
+      return "localise";
+    case v1::Request::kListMaps:
+      return "list_maps";
+    case v1::Request::kReloadMap:
+      return "reload_map";
+    case v1::Request::kStats:
+      return "stats";
+    case v1::Request::KIND_NOT_SET:
+      break;
+  }
+  return "unknown";
+}
+
+// The request id of a request that cannot be parsed (too large, malformed), when its
+// first field is one: generated code writes fields in number order, so a client's id
+// sits at the front. 0 otherwise.
+uint64_t PeekRequestId(const zmq::message_t& payload) {
+  const auto* p = static_cast<const uint8_t*>(payload.data());
+  const size_t n = payload.size();
+  if (n < 2 || p[0] != 0x08) return 0;  // field 1, varint
+  uint64_t id = 0;
+  for (size_t i = 1; i < n && i <= 10; ++i) {
+    id |= static_cast<uint64_t>(p[i] & 0x7F) << (7 * (i - 1));
+    if ((p[i] & 0x80) == 0) return id;
+  }
+  return 0;
+}
+
+// Sends [identity][empty?][reply] on `socket` (the ROUTER, or a worker's PUSH).
+void SendReply(zmq::socket_t& socket, zmq::message_t& identity, bool delimited,
+               const v1::Reply& reply) {
+  socket.send(identity, zmq::send_flags::sndmore);
+  if (delimited) socket.send(zmq::message_t(), zmq::send_flags::sndmore);
+  zmq::message_t body(reply.ByteSizeLong());
+  reply.SerializeToArray(body.data(), static_cast<int>(body.size()));
+  socket.send(body, zmq::send_flags::none);
+}
+
+v1::Reply ErrorReply(uint64_t request_id, v1::StatusCode code, const std::string& error) {
+  v1::Reply reply;
+  reply.set_request_id(request_id);
+  reply.set_status(code);
+  reply.set_error(error);
+  return reply;
+}
+
+void RecordAndLog(ServerStats* stats, const char* kind, const v1::Reply& reply,
+                  Clock::time_point received) {
+  const double ms = MsSince(received);
+  const std::string& status = v1::StatusCode_Name(reply.status());
+  stats->RecordReply(status, reply.kind_case() == v1::Reply::kLocalise, ms);
+  if (reply.status() == v1::OK) {
+    spdlog::debug("request {} {}: OK in {:.1f} ms", reply.request_id(), kind, ms);
+  } else {
+    spdlog::debug("request {} {}: {} in {:.1f} ms: {}", reply.request_id(), kind, status, ms,
+                  reply.error());
+  }
+}
+
+class ZmqServer final : public Server {
+ public:
+  ZmqServer(const ServerOptions& options, MapRegistry* registry)
+      : options_(options),
+        registry_(registry),
+        engine_pool_(options.threads),
+        handler_(options, registry, &engine_pool_, &stats_),
+        queue_(static_cast<size_t>(options.queue_capacity)),
+        frontend_(context_, zmq::socket_type::router),
+        replies_(context_, zmq::socket_type::pull),
+        control_(context_, zmq::socket_type::pull) {}
+
+  ~ZmqServer() override { Shutdown(); }
+
+  Status Bind() {
+    try {
+      frontend_.set(zmq::sockopt::maxmsgsize, 2 * options_.limits.max_message_bytes);
+      frontend_.set(zmq::sockopt::linger, kLingerMs);
+      frontend_.bind(options_.endpoint);
+      endpoint_ = frontend_.get(zmq::sockopt::last_endpoint);
+      replies_.bind(kRepliesEndpoint);
+      control_.bind(kControlEndpoint);
+    } catch (const zmq::error_t& e) {
+      return IoError("cannot bind '" + options_.endpoint + "': " + e.what());
+    }
+    return Status::Ok();
+  }
+
+  void StartThreads() {
+    for (int i = 0; i < options_.threads; ++i) workers_.emplace_back([this] { WorkerLoop(); });
+    // The sockets move to the I/O thread here; thread creation orders the accesses.
+    io_thread_ = std::thread([this] { IoLoop(); });
+  }
+
+  std::string endpoint() const override { return endpoint_; }
+
+  void Shutdown() override {
+    std::lock_guard<std::mutex> lock(shutdown_mutex_);
+    if (!io_thread_.joinable()) return;
+    try {
+      zmq::socket_t stop(context_, zmq::socket_type::push);
+      stop.set(zmq::sockopt::linger, -1);
+      stop.connect(kControlEndpoint);
+      stop.send(zmq::str_buffer("stop"), zmq::send_flags::none);
+    } catch (const zmq::error_t& e) {
+      spdlog::error("shutdown: cannot signal the I/O thread: {}", e.what());
+    }
+    io_thread_.join();
+  }
+
+ private:
+  // --- I/O thread ---
+
+  void IoLoop() {
+    std::optional<Clock::time_point> drain_deadline;
+    Clock::time_point next_summary = Clock::now() + SummaryInterval();
+    for (;;) {
+      if (drain_deadline && (outstanding_ == 0 || Clock::now() >= *drain_deadline)) break;
+      std::vector<zmq::pollitem_t> items = {{frontend_.handle(), 0, ZMQ_POLLIN, 0},
+                                            {replies_.handle(), 0, ZMQ_POLLIN, 0},
+                                            {control_.handle(), 0, ZMQ_POLLIN, 0}};
+      try {
+        zmq::poll(items, PollTimeout(drain_deadline, next_summary));
+        if (items[1].revents & ZMQ_POLLIN) ForwardReply();
+        if (items[0].revents & ZMQ_POLLIN) ReadRequest(drain_deadline.has_value());
+        if (items[2].revents & ZMQ_POLLIN) {
+          zmq::message_t ignored;
+          (void)control_.recv(ignored);
+          drain_deadline =
+              Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                 std::chrono::duration<double>(options_.drain_timeout_s));
+          spdlog::info("shutting down: draining {} request(s) in flight", outstanding_);
+        }
+      } catch (const zmq::error_t& e) {
+        // Nothing a peer sends should get here; keep serving, but say so.
+        spdlog::error("I/O thread: ZeroMQ error: {}", e.what());
+        stats_.RecordReply("INTERNAL", false, 0);
+      }
+      if (options_.summary_interval_s > 0 && Clock::now() >= next_summary) {
+        LogSummary();
+        next_summary = Clock::now() + SummaryInterval();
+      }
+    }
+    FinishDrain();
+  }
+
+  Clock::duration SummaryInterval() const {
+    return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(
+        options_.summary_interval_s > 0 ? options_.summary_interval_s : 3600.0));
+  }
+
+  std::chrono::milliseconds PollTimeout(const std::optional<Clock::time_point>& deadline,
+                                        Clock::time_point next_summary) const {
+    Clock::time_point wake = next_summary;
+    if (deadline && *deadline < wake) wake = *deadline;
+    const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(wake - Clock::now());
+    return std::max(ms, std::chrono::milliseconds(0)) + std::chrono::milliseconds(1);
+  }
+
+  // Reads one multipart message, keeping at most kMaxFrames frames (the rest are read and
+  // dropped so the socket stays in step).
+  Incoming ReceiveFrames() {
+    Incoming in;
+    std::vector<zmq::message_t> frames;
+    bool more = true;
+    while (more) {
+      zmq::message_t frame;
+      if (!frontend_.recv(frame, zmq::recv_flags::dontwait)) break;
+      more = frame.more();
+      ++in.frames;
+      in.bytes += frame.size();
+      if (frames.size() < kMaxFrames) frames.push_back(std::move(frame));
+    }
+    if (!frames.empty()) in.identity = std::move(frames[0]);
+    if (frames.size() == 3 && frames[1].size() == 0) {
+      in.delimited = true;
+      in.payload = std::move(frames[2]);
+    } else if (frames.size() == 2) {
+      in.payload = std::move(frames[1]);
+    }
+    return in;
+  }
+
+  void ReadRequest(bool draining) {
+    const Clock::time_point received = Clock::now();
+    Incoming in = ReceiveFrames();
+    if (in.frames == 0) return;
+    stats_.RecordRequest();
+    const uint64_t peeked_id = PeekRequestId(in.payload);
+    auto refuse = [&](v1::StatusCode code, const std::string& error) {
+      const v1::Reply reply = ErrorReply(peeked_id, code, error);
+      RecordAndLog(&stats_, "request", reply, received);
+      SendReply(frontend_, in.identity, in.delimited, reply);
+    };
+    if (in.frames > kMaxFrames || (in.frames == 3 && !in.delimited) || in.frames < 2) {
+      return refuse(v1::INVALID_ARGUMENT, "a request is [empty frame][Request] (got " +
+                                              std::to_string(in.frames - 1) +
+                                              " frames after the identity)");
+    }
+    if (in.bytes > static_cast<size_t>(options_.limits.max_message_bytes)) {
+      return refuse(v1::RESOURCE_EXHAUSTED,
+                    "request is " + std::to_string(in.bytes) + " bytes; at most " +
+                        std::to_string(options_.limits.max_message_bytes) + " are accepted");
+    }
+    auto job = std::make_unique<Job>();
+    if (!job->request.ParseFromArray(in.payload.data(), static_cast<int>(in.payload.size()))) {
+      return refuse(v1::INVALID_ARGUMENT, "request is not a valid sceneloc.v1.Request");
+    }
+    if (draining) return refuse(v1::UNAVAILABLE, "server is shutting down");
+    job->identity = std::move(in.identity);
+    job->delimited = in.delimited;
+    job->received = received;
+    Dispatch(std::move(job));
+  }
+
+  void Dispatch(std::unique_ptr<Job> job) {
+    if (RequestHandler::IsCheap(job->request)) {
+      v1::Reply reply;
+      handler_.Handle(job->request, job->received, &reply);
+      RecordAndLog(&stats_, KindName(job->request), reply, job->received);
+      SendReply(frontend_, job->identity, job->delimited, reply);
+      return;
+    }
+    if (queue_.TryPush(job)) {
+      ++outstanding_;
+      return;
+    }
+    const v1::Reply reply =
+        ErrorReply(job->request.request_id(), v1::OVERLOADED,
+                   "server is overloaded: " + std::to_string(options_.queue_capacity) +
+                       " requests are already waiting; retry later");
+    RecordAndLog(&stats_, KindName(job->request), reply, job->received);
+    SendReply(frontend_, job->identity, job->delimited, reply);
+  }
+
+  // Moves one finished reply from a worker to its client.
+  void ForwardReply() {
+    bool more = true;
+    while (more) {
+      zmq::message_t frame;
+      if (!replies_.recv(frame, zmq::recv_flags::dontwait)) return;
+      more = frame.more();
+      frontend_.send(frame, more ? zmq::send_flags::sndmore : zmq::send_flags::none);
+    }
+    --outstanding_;
+  }
+
+  void FinishDrain() {
+    for (std::unique_ptr<Job>& job : queue_.Close()) {
+      const v1::Reply reply = ErrorReply(job->request.request_id(), v1::UNAVAILABLE,
+                                         "server shut down before this request was started");
+      RecordAndLog(&stats_, KindName(job->request), reply, job->received);
+      SendReply(frontend_, job->identity, job->delimited, reply);
+      --outstanding_;
+    }
+    for (std::thread& worker : workers_) worker.join();
+    try {
+      while (outstanding_ > 0 && replies_.handle() != nullptr) {
+        zmq::pollitem_t item{replies_.handle(), 0, ZMQ_POLLIN, 0};
+        if (zmq::poll(&item, 1, std::chrono::milliseconds(0)) == 0) break;
+        ForwardReply();
+      }
+    } catch (const zmq::error_t& e) {
+      spdlog::error("shutdown: {}", e.what());
+    }
+    LogSummary();
+    frontend_.close();
+    replies_.close();
+    control_.close();
+  }
+
+  void LogSummary() const {
+    const StatsSnapshot s = stats_.Snapshot();
+    std::string statuses, maps;
+    for (const auto& [status, count] : s.replies_by_status) {
+      statuses += fmt::format(" {}={}", status, count);
+    }
+    for (const auto& map : registry_->List()) {
+      maps += fmt::format(" {}@{}", map->name, map->generation);
+    }
+    spdlog::info(
+        "summary: {} requests, {} in flight, replies:{}; localise p50 {:.1f} ms, p90 {:.1f} ms, "
+        "p99 {:.1f} ms (n={}); maps:{}",
+        s.requests, s.in_flight, statuses.empty() ? " none" : statuses, s.latency_p50_ms,
+        s.latency_p90_ms, s.latency_p99_ms, s.latency_count, maps.empty() ? " none" : maps);
+  }
+
+  // --- worker threads ---
+
+  void WorkerLoop() {
+    zmq::socket_t push(context_, zmq::socket_type::push);
+    push.set(zmq::sockopt::linger, -1);
+    push.connect(kRepliesEndpoint);
+    while (std::optional<std::unique_ptr<Job>> job = queue_.Pop()) {
+      Job& j = **job;
+      v1::Reply reply;
+      handler_.Handle(j.request, j.received, &reply);
+      RecordAndLog(&stats_, KindName(j.request), reply, j.received);
+      try {
+        SendReply(push, j.identity, j.delimited, reply);
+      } catch (const zmq::error_t& e) {
+        spdlog::error("worker: cannot pass a reply to the I/O thread: {}", e.what());
+      }
+    }
+  }
+
+  const ServerOptions options_;
+  MapRegistry* const registry_;
+  ServerStats stats_;
+  ThreadPool engine_pool_;
+  const RequestHandler handler_;
+  BoundedQueue<std::unique_ptr<Job>> queue_;
+
+  zmq::context_t context_;
+  // Owned by the I/O thread once it runs (created and bound by Start's caller before).
+  zmq::socket_t frontend_;
+  zmq::socket_t replies_;
+  zmq::socket_t control_;
+  size_t outstanding_ = 0;  // queued or running jobs; I/O thread only
+
+  std::string endpoint_;  // constant after Bind()
+  std::vector<std::thread> workers_;
+  std::mutex shutdown_mutex_;
+  std::thread io_thread_;  // guarded by shutdown_mutex_ after StartThreads()
+};
+
+}  // namespace
+
+StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options,
+                                                MapRegistry* registry) {
+  SCENELOC_RETURN_IF_ERROR(options.Validate());
+  auto server = std::make_unique<ZmqServer>(options, registry);
+  SCENELOC_RETURN_IF_ERROR(server->Bind());
+  server->StartThreads();
+  spdlog::info("serving {} map(s) on {} with {} worker(s), queue capacity {}",
+               registry->List().size(), server->endpoint(), options.threads,
+               options.queue_capacity);
+  return std::unique_ptr<Server>(std::move(server));
+}
+
+}  // namespace sceneloc

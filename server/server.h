@@ -1,0 +1,51 @@
+// sceneloc-server's network side: a ZeroMQ ROUTER socket, an I/O thread that owns it, and
+// a fixed pool of workers behind a bounded queue.
+//
+//   client ──▶ ROUTER (I/O thread) ── parse, check size and frames ──┬─ stats, list_maps:
+//                 ▲                                                 │  answered inline
+//                 │                                                 ├─ queue full: OVERLOADED
+//                 │                                                 ▼
+//                 └──── inproc PULL ◀── PUSH (one per worker) ◀── workers: RequestHandler
+//
+// ZeroMQ sockets are not thread-safe, so each has one owner thread: the I/O thread owns the
+// ROUTER and the PULL, each worker its own PUSH. Every request gets exactly one reply
+// (an answer, an error, OVERLOADED or UNAVAILABLE), except one larger than ZMQ_MAXMSGSIZE
+// (twice limits.max_message_bytes), whose sender ZeroMQ disconnects.
+//
+// Framing: a request is [identity][empty][Request] (what REQ sends, and what a DEALER
+// must send) or [identity][Request]; the reply mirrors it.
+//
+// Thread-safe: endpoint() and Shutdown() may be called from any thread.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "common/util/status.h"
+#include "server/map_registry.h"
+#include "server/server_options.h"
+
+namespace sceneloc {
+
+class Server {
+ public:
+  virtual ~Server() = default;  // Shutdown()s first
+
+  // Binds options.endpoint and starts serving the maps of `registry` (which must outlive
+  // the server; it may be changed while serving). Errors: invalid options
+  // (InvalidArgument), an endpoint that cannot be bound (IoError, naming it).
+  static StatusOr<std::unique_ptr<Server>> Start(const ServerOptions& options,
+                                                 MapRegistry* registry);
+
+  // The endpoint actually bound (ZMQ_LAST_ENDPOINT): tcp://127.0.0.1:* becomes the port
+  // the system chose.
+  virtual std::string endpoint() const = 0;
+
+  // Stops taking new work (requests arriving now get UNAVAILABLE), waits up to
+  // options.drain_timeout_s for the requests in flight to be answered (those still
+  // queued at the deadline get UNAVAILABLE), then closes the socket and joins every
+  // thread. Idempotent.
+  virtual void Shutdown() = 0;
+};
+
+}  // namespace sceneloc

@@ -1,0 +1,108 @@
+// sceneloc-server: the multi-map localisation daemon.
+//   sceneloc-server [--config configs/server.yaml] [--maps DIR] [--endpoint EP]
+//                   [--threads N] [any other settings field as --flag VALUE]
+// Loads every *.scnl in the maps directory, serves them on a ZeroMQ ROUTER socket and
+// runs until SIGTERM or SIGINT (drains in-flight requests, exits 0). SIGHUP reloads every
+// map file in the directory (a failure leaves that map's old version serving).
+#include <spdlog/spdlog.h>
+
+#include <CLI/CLI.hpp>
+#include <csignal>
+#include <map>
+
+#include "server/map_registry.h"
+#include "server/server.h"
+#include "server/server_options.h"
+
+namespace {
+
+using sceneloc::Status;
+
+// Settings from the file, then the flags given on the command line over them.
+Status ResolveOptions(const std::string& config_path,
+                      const std::map<std::string, std::string>& flag_values,
+                      sceneloc::ServerOptions* options) {
+  if (!config_path.empty()) {
+    SCENELOC_RETURN_IF_ERROR(sceneloc::LoadServerOptions(config_path, options));
+  }
+  for (const sceneloc::ServerFlag& flag : sceneloc::ServerFlags()) {
+    const auto it = flag_values.find(flag.flag);
+    if (it != flag_values.end()) {
+      SCENELOC_RETURN_IF_ERROR(sceneloc::ApplyServerFlag(flag, it->second, options));
+    }
+  }
+  return Status::Ok();
+}
+
+// Loads (or reloads) every map file in `dir`; false when `dir` cannot be listed.
+bool LoadAll(sceneloc::MapRegistry* registry, const std::string& dir) {
+  std::vector<Status> failures;
+  const Status listed = registry->LoadDirectory(dir, &failures);
+  if (!listed.ok()) {
+    spdlog::error("{}", listed.message());
+    return false;
+  }
+  for (const Status& failure : failures) spdlog::error("map not loaded: {}", failure.ToString());
+  for (const auto& map : registry->List()) {
+    spdlog::info("map {} generation {} checksum {:08x}: {} locations, {} landmarks ({})", map->name,
+                 map->generation, map->checksum, map->map.num_images(), map->map.num_landmarks(),
+                 map->path);
+  }
+  return true;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"sceneloc-server: serves landmark maps over ZeroMQ"};
+  std::string config_path;
+  app.add_option("--config", config_path, "settings file, e.g. configs/server.yaml");
+  std::map<std::string, std::string> flag_values;
+  for (const sceneloc::ServerFlag& flag : sceneloc::ServerFlags()) {
+    app.add_option_function<std::string>(
+        "--" + flag.flag,
+        [&flag_values, name = flag.flag](const std::string& v) { flag_values[name] = v; },
+        flag.help + " [" + flag.section + "." + flag.key + "]");
+  }
+  CLI11_PARSE(app, argc, argv);
+
+  sceneloc::ServerOptions options;
+  const Status resolved = ResolveOptions(config_path, flag_values, &options);
+  if (!resolved.ok()) {
+    std::fprintf(stderr, "sceneloc-server: %s\n", resolved.message().c_str());
+    return 2;
+  }
+  spdlog::set_level(spdlog::level::from_str(options.log_level));
+  spdlog::debug("settings:\n{}", sceneloc::ServerOptionsToYaml(options));
+
+  // Block the signals in every thread (they inherit the mask) and take them here.
+  sigset_t signals;
+  sigemptyset(&signals);
+  for (const int s : {SIGTERM, SIGINT, SIGHUP}) sigaddset(&signals, s);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  sceneloc::MapRegistry::Options registry_options;
+  registry_options.self_test = options.matching;
+  sceneloc::MapRegistry registry(registry_options);
+  if (!LoadAll(&registry, options.maps_dir)) return 2;
+
+  auto server = sceneloc::Server::Start(options, &registry);
+  if (!server.ok()) {
+    spdlog::critical("{}", server.status().message());
+    return 1;
+  }
+  for (;;) {
+    int signal = 0;
+    if (sigwait(&signals, &signal) != 0) continue;
+    if (signal == SIGHUP) {
+      spdlog::info("SIGHUP: reloading the maps in {}", options.maps_dir);
+      (void)LoadAll(&registry, options.maps_dir);
+      continue;
+    }
+    spdlog::info("{}: stopping", signal == SIGTERM ? "SIGTERM" : "SIGINT");
+    break;
+  }
+  (*server)->Shutdown();
+  spdlog::info("stopped");
+  return 0;
+}

@@ -1,0 +1,114 @@
+#include "server/server_options.h"
+
+#include <spdlog/common.h>
+
+#include <algorithm>
+
+#include "common/config/config.h"
+
+namespace sceneloc {
+namespace {
+
+// Every settable field of the server: its own server: and limits: sections, then the
+// engine's matching: section (the same keys as configs/match.yaml).
+SettingTable Fields(ServerOptions* o) {
+  RequestLimits* l = &o->limits;
+  SettingTable table = {
+      {"server", "maps_dir", &o->maps_dir, 0, 0,
+       "folder of map files (*.scnl), served by file stem", "maps"},
+      {"server", "endpoint", &o->endpoint, 0, 0, "ZeroMQ endpoint to bind, e.g. tcp://*:5555"},
+      {"server", "threads", &o->threads, 1, 256, "worker threads"},
+      {"server", "queue_capacity", &o->queue_capacity, 1, 1000000,
+       "requests waiting for a worker at most; more get OVERLOADED"},
+      {"server", "log_level", &o->log_level, 0, 0,
+       "trace, debug, info, warn, error, critical, off"},
+      {"server", "summary_interval_s", &o->summary_interval_s, 0, 1e6,
+       "seconds between summary log lines (0 = none)", "summary-interval"},
+      {"server", "drain_timeout_s", &o->drain_timeout_s, 0, 3600,
+       "seconds to wait for in-flight requests on SIGTERM", "drain-timeout"},
+      {"limits", "max_message_bytes", &l->max_message_bytes, 1024, 1e9, "largest request, bytes"},
+      {"limits", "max_image_side", &l->max_image_side, 16, 65536,
+       "largest JPEG width or height, pixels"},
+      {"limits", "max_image_pixels", &l->max_image_pixels, 256, 1e10,
+       "largest JPEG width x height, pixels"},
+      {"limits", "max_keypoints", &l->max_keypoints, 1, 1000000, "most keypoints in a feature set"},
+      {"limits", "max_top_k", &l->max_top_k, 1, 1000, "most ranked locations per request"},
+  };
+  for (SettingField& f : MatchSettingTable(&o->matching)) {
+    f.help = "matching." + f.key + " (configs/match.yaml)";
+    table.push_back(std::move(f));
+  }
+  return table;
+}
+
+}  // namespace
+
+Status RequestLimits::Validate() const {
+  if (max_message_bytes < 1024) return InvalidArgument("max_message_bytes must be >= 1024");
+  if (max_image_side < 16) return InvalidArgument("max_image_side must be >= 16");
+  if (max_image_pixels < 256) return InvalidArgument("max_image_pixels must be >= 256");
+  if (max_keypoints < 1) return InvalidArgument("max_keypoints must be >= 1");
+  if (max_top_k < 1) return InvalidArgument("max_top_k must be >= 1");
+  return Status::Ok();
+}
+
+Status ServerOptions::Validate() const {
+  if (maps_dir.empty()) return InvalidArgument("maps_dir must be set");
+  if (endpoint.empty()) return InvalidArgument("endpoint must be set");
+  if (threads < 1) return InvalidArgument("threads must be >= 1");
+  if (queue_capacity < 1) return InvalidArgument("queue_capacity must be >= 1");
+  if (spdlog::level::from_str(log_level) == spdlog::level::off && log_level != "off") {
+    return InvalidArgument("log_level '" + log_level +
+                           "' is not one of trace, debug, info, warn, error, critical, off");
+  }
+  if (!(summary_interval_s >= 0)) return InvalidArgument("summary_interval_s must be >= 0");
+  if (!(drain_timeout_s >= 0)) return InvalidArgument("drain_timeout_s must be >= 0");
+  SCENELOC_RETURN_IF_ERROR(limits.Validate());
+  return matching.Validate();
+}
+
+Status ParseServerOptions(const std::string& yaml, const std::string& name,
+                          ServerOptions* options) {
+  ServerOptions updated = *options;
+  SCENELOC_RETURN_IF_ERROR(ApplySettings(yaml, name, Fields(&updated)));
+  const Status valid = updated.Validate();
+  if (!valid.ok()) return InvalidArgument(name + ": " + valid.message());
+  *options = updated;
+  return Status::Ok();
+}
+
+Status LoadServerOptions(const std::string& path, ServerOptions* options) {
+  SCENELOC_ASSIGN_OR_RETURN(const std::string text, ReadSettingsFile(path));
+  return ParseServerOptions(text, path, options);
+}
+
+std::vector<ServerFlag> ServerFlags() {
+  ServerOptions scratch;
+  std::vector<ServerFlag> flags;
+  for (const SettingField& f : Fields(&scratch)) {
+    flags.push_back({f.FlagName(), f.section, f.key, f.help});
+  }
+  return flags;
+}
+
+Status ApplyServerFlag(const ServerFlag& flag, const std::string& value, ServerOptions* options) {
+  ServerOptions updated = *options;
+  const std::string where = "--" + flag.flag;
+  const SettingTable fields = Fields(&updated);
+  const auto it = std::find_if(fields.begin(), fields.end(), [&](const SettingField& f) {
+    return flag.section == f.section && flag.key == f.key;
+  });
+  if (it == fields.end()) return InvalidArgument(where + " is not a server setting");
+  SCENELOC_RETURN_IF_ERROR(ApplySetting(*it, value, where));
+  const Status valid = updated.Validate();
+  if (!valid.ok()) return InvalidArgument(where + ": " + valid.message());
+  *options = updated;
+  return Status::Ok();
+}
+
+std::string ServerOptionsToYaml(const ServerOptions& options) {
+  ServerOptions copy = options;
+  return SettingsToYaml(Fields(&copy));
+}
+
+}  // namespace sceneloc

@@ -1,0 +1,80 @@
+// sceneloc-server's settings: configs/server.yaml, every field also a command-line flag.
+//
+//   server:    maps_dir, endpoint, threads, queue_capacity, log_level,
+//              summary_interval_s, drain_timeout_s
+//   limits:    max_message_bytes, max_image_side, max_image_pixels, max_keypoints, max_top_k
+//   matching:  as configs/match.yaml (common/config/config.h)
+//
+// Strict like common/config: an unknown section or key, a wrong type or an out-of-range
+// value is an error naming the source and the key.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "common/matching/localiser.h"
+#include "common/util/status.h"
+
+namespace sceneloc {
+
+// Caps on untrusted requests. Each refusal is an error reply and a counter, never a crash.
+struct RequestLimits {
+  // Largest request the server reads, bytes. A larger one gets RESOURCE_EXHAUSTED; one
+  // over twice this is cut off by ZeroMQ itself (ZMQ_MAXMSGSIZE) and the peer disconnected.
+  int64_t max_message_bytes = 8 << 20;
+  // Largest image width or height (read from the JPEG header before decoding), pixels.
+  int max_image_side = 4096;
+  // Largest width x height of a JPEG, pixels (decoding allocates 3 bytes per pixel).
+  int64_t max_image_pixels = 16 << 20;
+  // Most keypoints in a feature-set request.
+  int max_keypoints = 8192;
+  // Most ranked locations a request may ask for.
+  int max_top_k = 100;
+
+  Status Validate() const;
+};
+
+struct ServerOptions {
+  // Folder of map files (*.scnl); each is served under its file stem.
+  std::string maps_dir = "maps";
+  // ZeroMQ endpoint the ROUTER socket binds, e.g. tcp://*:5555 or tcp://127.0.0.1:*.
+  std::string endpoint = "tcp://*:5555";
+  // Worker threads that localise requests (also the engine's ParallelFor width).
+  int threads = 2;
+  // Requests waiting for a worker at most; one more gets an immediate OVERLOADED reply.
+  int queue_capacity = 64;
+  // spdlog level: trace, debug, info, warn, error, critical, off.
+  std::string log_level = "info";
+  // Seconds between summary log lines at info (0 = none).
+  double summary_interval_s = 60;
+  // On SIGTERM, wait at most this long for in-flight requests, seconds.
+  double drain_timeout_s = 10;
+  RequestLimits limits;
+  MatchOptions matching;
+
+  Status Validate() const;
+};
+
+// Reads a settings file over `options` (which holds the defaults on entry).
+Status LoadServerOptions(const std::string& path, ServerOptions* options);
+// The same from YAML text; `name` names the source in errors.
+Status ParseServerOptions(const std::string& yaml, const std::string& name, ServerOptions* options);
+
+// A command-line flag for one settings field: "--threads" sets server.threads.
+struct ServerFlag {
+  std::string flag;     // without dashes, e.g. "threads", "maps", "s-min"
+  std::string section;  // "server", "limits" or "matching"
+  std::string key;      // e.g. "threads", "maps_dir", "s_min"
+  std::string help;
+};
+// Every field's flag, in file order.
+std::vector<ServerFlag> ServerFlags();
+// Sets the field of `flag` from its command-line text, with the file's type and range
+// checks (then re-validates the whole options). Errors name the flag.
+Status ApplyServerFlag(const ServerFlag& flag, const std::string& value, ServerOptions* options);
+
+// The settings as YAML, in the file's layout (logged at start-up).
+std::string ServerOptionsToYaml(const ServerOptions& options);
+
+}  // namespace sceneloc

@@ -1,0 +1,99 @@
+// sceneloc::Client: timeouts, retries on a fresh socket, surviving a server restart.
+#include "client/client.h"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <future>
+#include <zmq.hpp>
+#include <zmq_addon.hpp>
+
+#include "tests/server/server_test_support.h"
+
+namespace sceneloc {
+namespace {
+
+// A server that never answers: each attempt times out, and each retry arrives as a new
+// request on a fresh connection, after which the call fails with IoError.
+TEST(ClientTest, TimesOutAndRetriesOnAFreshSocket) {
+  zmq::context_t context;
+  zmq::socket_t silent(context, zmq::socket_type::router);
+  silent.set(zmq::sockopt::linger, 0);
+  silent.bind("tcp://127.0.0.1:*");
+  ClientOptions options;
+  options.timeout_ms = 150;
+  options.retries = 1;
+  auto client = Client::Connect(silent.get(zmq::sockopt::last_endpoint), options);
+  ASSERT_TRUE(client.ok());
+  auto reply = (*client)->Stats();
+  EXPECT_EQ(reply.status().code(), StatusCode::kIoError);
+  EXPECT_NE(reply.status().message().find("2 attempts"), std::string::npos);
+
+  std::vector<std::string> identities;
+  std::vector<uint64_t> ids;
+  for (int n = 0; n < 2; ++n) {
+    zmq::pollitem_t item{silent.handle(), 0, ZMQ_POLLIN, 0};
+    ASSERT_GT(zmq::poll(&item, 1, std::chrono::seconds(5)), 0);
+    std::vector<zmq::message_t> parts;
+    ASSERT_TRUE(zmq::recv_multipart(silent, std::back_inserter(parts)));
+    ASSERT_EQ(parts.size(), 3u);  // identity, empty delimiter, request
+    EXPECT_EQ(parts[1].size(), 0u);
+    v1::Request request;
+    ASSERT_TRUE(request.ParseFromArray(parts[2].data(), static_cast<int>(parts[2].size())));
+    EXPECT_TRUE(request.has_stats());
+    identities.push_back(parts[0].to_string());
+    ids.push_back(request.request_id());
+  }
+  EXPECT_NE(identities[0], identities[1]);  // the retry came from a new socket
+  EXPECT_EQ(ids[0], ids[1]);                // carrying the same request
+}
+
+// Invalid options are refused before anything connects.
+TEST(ClientTest, RefusesInvalidOptions) {
+  ClientOptions options;
+  options.timeout_ms = 0;
+  EXPECT_EQ(Client::Connect("tcp://127.0.0.1:1", options).status().code(),
+            StatusCode::kInvalidArgument);
+  EXPECT_EQ(Client::Connect("not an endpoint").status().code(), StatusCode::kInvalidArgument);
+}
+
+// A call made while the server is down completes once a new server comes up on the
+// same endpoint (a restart), and later calls keep working.
+TEST(ClientTest, SurvivesAServerRestart) {
+  const ServerOptions options = test::TestServerOptions();
+  test::TestServer first = test::StartTestServer(options);
+  ASSERT_NE(first.server, nullptr);
+  ClientOptions client_options;
+  client_options.timeout_ms = 300;
+  client_options.retries = 30;
+  auto client = Client::Connect(first.endpoint, client_options);
+  ASSERT_TRUE(client.ok());
+  ASSERT_TRUE((*client)->ListMaps().ok());
+  first.server->Shutdown();
+
+  auto pending = std::async(std::launch::async, [&] {
+    return (*client)->Localise(test::kTestMapName, test::TourFeatures(9));
+  });
+  ServerOptions again = options;
+  again.endpoint = first.endpoint;  // the same port
+  test::TestServer second = test::StartTestServer(again);
+  ASSERT_NE(second.server, nullptr);
+  auto reply = pending.get();
+  ASSERT_TRUE(reply.ok()) << reply.status().ToString();
+  EXPECT_EQ(reply->locations(0).index(), 9);
+  EXPECT_TRUE((*client)->Stats().ok());
+}
+
+// An error reply becomes a status naming the wire status, with the nearest engine code.
+TEST(ClientTest, ErrorRepliesBecomeStatuses) {
+  test::TestServer server = test::StartTestServer(test::TestServerOptions());
+  ASSERT_NE(server.server, nullptr);
+  auto client = Client::Connect(server.endpoint);
+  ASSERT_TRUE(client.ok());
+  auto reply = (*client)->Localise("elsewhere", test::TourJpegs()[0]);
+  EXPECT_EQ(reply.status().code(), StatusCode::kNotFound);
+  EXPECT_EQ(reply.status().message().rfind("NOT_FOUND: ", 0), 0u) << reply.status().message();
+}
+
+}  // namespace
+}  // namespace sceneloc

@@ -1,0 +1,64 @@
+// ReadJpegDimensions: real encoder output, and every way a header can be cut or bent.
+#include "server/jpeg_header.h"
+
+#include <gtest/gtest.h>
+
+#include <opencv2/imgcodecs.hpp>
+#include <random>
+
+namespace sceneloc {
+namespace {
+
+std::string Encode(int width, int height, int channels, bool progressive = false) {
+  cv::Mat image(height, width, channels == 1 ? CV_8UC1 : CV_8UC3, cv::Scalar::all(90));
+  cv::randu(image, 0, 255);
+  std::vector<uchar> bytes;
+  cv::imencode(".jpg", image, bytes, {cv::IMWRITE_JPEG_PROGRESSIVE, progressive ? 1 : 0});
+  return std::string(bytes.begin(), bytes.end());
+}
+
+// Baseline and progressive, grey and colour JPEGs from OpenCV report their true size.
+TEST(JpegHeaderTest, ReadsTheSizeOfEncodedImages) {
+  for (const bool progressive : {false, true}) {
+    auto d = ReadJpegDimensions(Encode(123, 45, 3, progressive));
+    ASSERT_TRUE(d.ok()) << d.status().ToString();
+    EXPECT_EQ(d->width, 123);
+    EXPECT_EQ(d->height, 45);
+    EXPECT_EQ(d->components, 3);
+  }
+  auto grey = ReadJpegDimensions(Encode(64, 80, 1));
+  ASSERT_TRUE(grey.ok());
+  EXPECT_EQ(grey->components, 1);
+}
+
+// Not a JPEG, cut before the frame header, or an empty buffer: InvalidArgument.
+TEST(JpegHeaderTest, RefusesNonJpegAndTruncatedHeaders) {
+  const std::string jpeg = Encode(100, 100, 3);
+  const size_t sof = jpeg.find("\xff\xc0");
+  ASSERT_NE(sof, std::string::npos);
+  for (size_t cut : {size_t{0}, size_t{1}, size_t{2}, size_t{3}, sof, sof + 4}) {
+    EXPECT_EQ(ReadJpegDimensions(jpeg.substr(0, cut)).status().code(), StatusCode::kInvalidArgument)
+        << "cut at " << cut;
+  }
+  EXPECT_FALSE(ReadJpegDimensions("\x89PNG\r\n\x1a\n....").ok());
+  std::string zero = jpeg;
+  zero[sof + 5] = zero[sof + 6] = 0;  // height 0 (defined later by DNL): refused
+  EXPECT_FALSE(ReadJpegDimensions(zero).ok());
+}
+
+// Random bytes after a JPEG start marker never read out of bounds (run under ASAN) and
+// never report a zero size.
+TEST(JpegHeaderTest, RandomBytesAreSafe) {
+  std::mt19937 rng(7);
+  for (int trial = 0; trial < 2000; ++trial) {
+    std::string bytes = "\xff\xd8";
+    const size_t n = rng() % 64;
+    for (size_t i = 0; i < n; ++i)
+      bytes.push_back(static_cast<char>(rng() % 4 == 0 ? 0xFF : rng()));
+    auto d = ReadJpegDimensions(bytes);
+    if (d.ok()) EXPECT_GT(d->width * d->height, 0);
+  }
+}
+
+}  // namespace
+}  // namespace sceneloc

@@ -1,0 +1,130 @@
+// MapRegistry: generations, snapshots that outlive swaps and removals, failed loads that
+// change nothing.
+#include "server/map_registry.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+
+#include "common/map/map_io.h"
+#include "tests/server/server_test_support.h"
+
+namespace sceneloc {
+namespace {
+
+namespace fs = std::filesystem;
+
+class MapRegistryTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::path(::testing::TempDir()) / ("sceneloc_registry_" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    path_ = (dir_ / "site.scnl").string();
+    fs::copy_file(test::TestMapPath(), path_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  // Overwrites the map file with its first `bytes` bytes.
+  void Truncate(size_t bytes) {
+    std::string content(bytes, '\0');
+    std::ifstream(path_, std::ios::binary)
+        .read(content.data(), static_cast<std::streamsize>(bytes));
+    std::ofstream(path_, std::ios::binary | std::ios::trunc)
+        .write(content.data(), static_cast<std::streamsize>(bytes));
+  }
+
+  MapRegistry registry_{MapRegistry::Options()};
+  fs::path dir_;
+  std::string path_;
+};
+
+// A load serves the file under its stem with generation 1 and the file's checksum.
+TEST_F(MapRegistryTest, LoadServesUnderTheFileStem) {
+  auto loaded = registry_.Load(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.status().ToString();
+  MapFileInfo info;
+  ASSERT_TRUE(LoadMap(path_, &info).ok());
+  const auto map = registry_.Get("site");
+  ASSERT_NE(map, nullptr);
+  EXPECT_EQ(map->generation, 1u);
+  EXPECT_EQ(map->checksum, info.checksum);
+  EXPECT_EQ(map->path, path_);
+  EXPECT_NE(map->extractor, nullptr);
+  EXPECT_EQ(registry_.Get("other"), nullptr);
+  EXPECT_EQ(registry_.loads(), 1u);
+}
+
+// A reload swaps in generation 2 while a held snapshot stays generation 1 and usable.
+TEST_F(MapRegistryTest, ReloadSwapsWhileOldSnapshotLives) {
+  ASSERT_TRUE(registry_.Load(path_).ok());
+  const auto held = registry_.Get("site");
+  ASSERT_TRUE(registry_.Load(path_).ok());
+  EXPECT_EQ(registry_.Get("site")->generation, 2u);
+  EXPECT_EQ(held->generation, 1u);
+  EXPECT_EQ(held->map.num_images(), test::kTestTourLocations);
+  EXPECT_NE(held, registry_.Get("site"));
+}
+
+// A truncated or garbage replacement fails, is counted, and the old map keeps serving.
+TEST_F(MapRegistryTest, BadReplacementLeavesOldMapServing) {
+  ASSERT_TRUE(registry_.Load(path_).ok());
+  Truncate(fs::file_size(path_) / 2);
+  auto truncated = registry_.Load(path_);
+  EXPECT_EQ(truncated.status().code(), StatusCode::kDataLoss) << truncated.status().ToString();
+  std::ofstream(path_, std::ios::trunc) << "not a map";
+  EXPECT_FALSE(registry_.Load(path_).ok());
+  fs::remove(path_);
+  EXPECT_EQ(registry_.Load(path_).status().code(), StatusCode::kNotFound);
+  ASSERT_NE(registry_.Get("site"), nullptr);
+  EXPECT_EQ(registry_.Get("site")->generation, 1u);
+  EXPECT_EQ(registry_.load_failures(), 3u);
+}
+
+// Remove stops serving, a held snapshot survives, and a later load continues the count.
+TEST_F(MapRegistryTest, RemoveKeepsHeldSnapshotsAndGenerationsGrow) {
+  ASSERT_TRUE(registry_.Load(path_).ok());
+  const auto held = registry_.Get("site");
+  EXPECT_TRUE(registry_.Remove("site"));
+  EXPECT_FALSE(registry_.Remove("site"));
+  EXPECT_EQ(registry_.Get("site"), nullptr);
+  EXPECT_TRUE(registry_.List().empty());
+  EXPECT_EQ(held->map.num_images(), test::kTestTourLocations);
+  ASSERT_TRUE(registry_.Load(path_).ok());
+  EXPECT_EQ(registry_.Get("site")->generation, 2u);
+}
+
+// LoadDirectory loads every *.scnl, reports each failure, and ignores other files.
+TEST_F(MapRegistryTest, LoadDirectoryReportsEachFailure) {
+  fs::copy_file(path_, dir_ / "second.scnl");
+  std::ofstream(dir_ / "broken.scnl") << "broken";
+  std::ofstream(dir_ / "notes.txt") << "not a map";
+  std::vector<Status> failures;
+  ASSERT_TRUE(registry_.LoadDirectory(dir_.string(), &failures).ok());
+  ASSERT_EQ(failures.size(), 1u);
+  EXPECT_NE(failures[0].message().find("broken.scnl"), std::string::npos);
+  ASSERT_EQ(registry_.List().size(), 2u);
+  EXPECT_EQ(registry_.List()[0]->name, "second");
+  EXPECT_FALSE(registry_.LoadDirectory((dir_ / "absent").string(), nullptr).ok());
+}
+
+// The self-test query of every location of the test map ranks that location among the
+// best (the contract Load checks), and a shuffled map fails it.
+TEST_F(MapRegistryTest, SelfTestFeaturesFindTheirLocation) {
+  auto map = LoadMap(path_);
+  ASSERT_TRUE(map.ok());
+  for (int l = 0; l < map->num_images(); ++l) {
+    auto result = Localise(SelfTestFeatures(*map, l), *map, MatchOptions(), nullptr);
+    ASSERT_TRUE(result.ok());
+    const auto& ranked = result->ranked;
+    EXPECT_TRUE(std::any_of(ranked.begin(), ranked.end(),
+                            [&](const RankedLocation& r) { return r.index == l; }))
+        << "location " << l;
+  }
+}
+
+}  // namespace
+}  // namespace sceneloc

@@ -1,0 +1,80 @@
+// The server's settings: the shipped file, strictness, and flags over the file.
+#include "server/server_options.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+
+namespace sceneloc {
+namespace {
+
+const ServerFlag& Flag(const std::string& name) {
+  static const std::vector<ServerFlag> flags = ServerFlags();
+  const auto it =
+      std::find_if(flags.begin(), flags.end(), [&](const ServerFlag& f) { return f.flag == name; });
+  EXPECT_NE(it, flags.end()) << name;
+  return *it;
+}
+
+// configs/server.yaml loads and holds the documented defaults.
+TEST(ServerOptionsTest, ShippedFileLoads) {
+  ServerOptions options;
+  ASSERT_TRUE(LoadServerOptions(SCENELOC_CONFIGS_DIR "/server.yaml", &options).ok());
+  EXPECT_EQ(options.endpoint, "tcp://*:5555");
+  EXPECT_EQ(options.threads, 2);
+  EXPECT_EQ(options.limits.max_keypoints, 8192);
+  EXPECT_EQ(options.matching.verify_top, MatchOptions().verify_top);
+}
+
+// Unknown sections and keys, wrong types and out-of-range values are errors naming the
+// key, and leave the options untouched.
+TEST(ServerOptionsTest, StrictAboutKeysTypesAndRanges) {
+  ServerOptions options;
+  const Status unknown = ParseServerOptions("server:\n  thread: 3\n", "f", &options);
+  EXPECT_NE(unknown.message().find("server.thread"), std::string::npos) << unknown.message();
+  EXPECT_FALSE(ParseServerOptions("serverz:\n  threads: 3\n", "f", &options).ok());
+  EXPECT_FALSE(ParseServerOptions("server:\n  threads: many\n", "f", &options).ok());
+  EXPECT_FALSE(ParseServerOptions("server:\n  threads: 0\n", "f", &options).ok());
+  EXPECT_FALSE(ParseServerOptions("server:\n  log_level: loud\n", "f", &options).ok());
+  EXPECT_FALSE(ParseServerOptions("matching:\n  s_mim: 0.2\n", "f", &options).ok());
+  EXPECT_FALSE(ParseServerOptions("limits:\n  max_keypoints: -1\n", "f", &options).ok());
+  EXPECT_EQ(options.threads, ServerOptions().threads);
+  ASSERT_TRUE(
+      ParseServerOptions("matching:\n  s_min: 0.25\nlimits:\n  max_top_k: 7\n", "f", &options)
+          .ok());
+  EXPECT_EQ(options.matching.s_min, 0.25);
+  EXPECT_EQ(options.limits.max_top_k, 7);
+}
+
+// Every field has a flag; flags apply with the file's checks.
+TEST(ServerOptionsTest, FlagsOverrideWithTheSameChecks) {
+  ServerOptions options;
+  ASSERT_TRUE(ApplyServerFlag(Flag("maps"), "/srv/maps", &options).ok());
+  ASSERT_TRUE(ApplyServerFlag(Flag("threads"), "4", &options).ok());
+  ASSERT_TRUE(ApplyServerFlag(Flag("s-min"), "0.4", &options).ok());
+  ASSERT_TRUE(ApplyServerFlag(Flag("use-neighbourhood"), "false", &options).ok());
+  ASSERT_TRUE(ApplyServerFlag(Flag("max-message-bytes"), "1048576", &options).ok());
+  EXPECT_EQ(options.maps_dir, "/srv/maps");
+  EXPECT_EQ(options.threads, 4);
+  EXPECT_EQ(options.matching.s_min, 0.4);
+  EXPECT_FALSE(options.matching.use_neighbourhood);
+  EXPECT_EQ(options.limits.max_message_bytes, 1048576);
+  const Status bad = ApplyServerFlag(Flag("threads"), "0", &options);
+  EXPECT_NE(bad.message().find("--threads"), std::string::npos) << bad.message();
+  EXPECT_FALSE(ApplyServerFlag(Flag("s-min"), "2", &options).ok());
+  EXPECT_EQ(options.threads, 4);
+  // Round trip through the YAML the server logs.
+  ServerOptions again;
+  ASSERT_TRUE(ParseServerOptions(ServerOptionsToYaml(options), "yaml", &again).ok());
+  EXPECT_EQ(again.maps_dir, "/srv/maps");
+  EXPECT_EQ(again.matching.s_min, 0.4);
+  // One flag per field: 12 server and limits fields, and every matching field.
+  const std::vector<ServerFlag> flags = ServerFlags();
+  const auto matching = std::count_if(flags.begin(), flags.end(),
+                                      [](const ServerFlag& f) { return f.section == "matching"; });
+  EXPECT_EQ(flags.size() - static_cast<size_t>(matching), 12u);
+  EXPECT_GE(matching, 10);
+}
+
+}  // namespace
+}  // namespace sceneloc

@@ -1,0 +1,378 @@
+// A real server on tcp://127.0.0.1:* serving a map trained from a generated tour, driven
+// through real sockets: answers, bad input, overload, shutdown.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <set>
+#include <thread>
+#include <zmq.hpp>
+#include <zmq_addon.hpp>
+
+#include "client/client.h"
+#include "common/map/map_io.h"
+#include "common/matching/localiser.h"
+#include "tests/server/server_test_support.h"
+
+namespace sceneloc {
+namespace {
+
+using test::kTestMapName;
+using test::kTestTourLocations;
+
+// Sends raw frames on a fresh DEALER and waits (up to 20 s) for one reply.
+v1::Reply RawCall(const std::string& endpoint, const std::vector<std::string>& frames) {
+  zmq::context_t context;
+  zmq::socket_t socket(context, zmq::socket_type::dealer);
+  socket.set(zmq::sockopt::linger, 0);
+  socket.connect(endpoint);
+  for (size_t i = 0; i < frames.size(); ++i) {
+    socket.send(zmq::buffer(frames[i]),
+                i + 1 < frames.size() ? zmq::send_flags::sndmore : zmq::send_flags::none);
+  }
+  zmq::pollitem_t item{socket.handle(), 0, ZMQ_POLLIN, 0};
+  v1::Reply reply;
+  if (zmq::poll(&item, 1, std::chrono::seconds(20)) == 0) {
+    ADD_FAILURE() << "no reply";
+    return reply;
+  }
+  std::vector<zmq::message_t> parts;
+  (void)zmq::recv_multipart(socket, std::back_inserter(parts));
+  EXPECT_TRUE(reply.ParseFromArray(parts.back().data(), static_cast<int>(parts.back().size())));
+  return reply;
+}
+
+std::unique_ptr<Client> MustConnect(const std::string& endpoint, int timeout_ms = 20000) {
+  ClientOptions options;
+  options.timeout_ms = timeout_ms;
+  options.retries = 0;
+  auto client = Client::Connect(endpoint, options);
+  EXPECT_TRUE(client.ok()) << client.status().ToString();
+  return client.ok() ? std::move(client).value() : nullptr;
+}
+
+v1::Request LocaliseFeatures(const FeatureSet& features) {
+  v1::Request request;
+  request.mutable_localise()->set_map(kTestMapName);
+  EncodeFeatureSet(features, DescriptorEncoding::kFloat32,
+                   request.mutable_localise()->mutable_features());
+  return request;
+}
+
+class ServerTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    server_ = test::StartTestServer(test::TestServerOptions());
+    ASSERT_FALSE(HasFatalFailure());
+    ASSERT_NE(server_.server, nullptr);
+    client_ = MustConnect(server_.endpoint);
+    ASSERT_NE(client_, nullptr);
+  }
+
+  test::TestServer server_;
+  std::unique_ptr<Client> client_;
+};
+
+// A tour JPEG sent as bytes comes back as its own location, naming the map version.
+TEST_F(ServerTest, JpegRoundTripFindsTheRightLocation) {
+  MapFileInfo info;
+  ASSERT_TRUE(LoadMap(test::TestMapPath(), &info).ok());
+  for (int i : {0, 5, kTestTourLocations - 1}) {
+    auto reply = client_->Localise(kTestMapName, test::TourJpegs()[i]);
+    ASSERT_TRUE(reply.ok()) << reply.status().ToString();
+    ASSERT_FALSE(reply->locations().empty());
+    EXPECT_EQ(reply->locations(0).index(), i);
+    EXPECT_EQ(reply->locations(0).image_name(),
+              "Image" + std::string(i < 10 ? "00" : "0") + std::to_string(i) + ".jpg");
+    EXPECT_GT(reply->confidence(), 0.0f);
+    EXPECT_EQ(reply->map().name(), kTestMapName);
+    EXPECT_EQ(reply->map().generation(), 1u);
+    EXPECT_EQ(reply->map().checksum(), info.checksum);
+    EXPECT_GT(reply->timings().decode_ms(), 0.0);
+    EXPECT_GT(reply->timings().extract_ms(), 0.0);
+    EXPECT_GE(reply->timings().total_ms(), reply->timings().descriptor_ms());
+  }
+}
+
+// A feature set sent over the wire gets exactly the answer the engine gives in process.
+TEST_F(ServerTest, FeatureSetRoundTripMatchesTheEngine) {
+  auto map = LoadMap(test::TestMapPath());
+  ASSERT_TRUE(map.ok());
+  const int i = 7;
+  auto local = Localise(test::TourFeatures(i), *map, MatchOptions(), nullptr);
+  ASSERT_TRUE(local.ok());
+  auto reply = client_->Localise(kTestMapName, test::TourFeatures(i));
+  ASSERT_TRUE(reply.ok()) << reply.status().ToString();
+  ASSERT_EQ(reply->locations_size(), static_cast<int>(local->ranked.size()));
+  for (int k = 0; k < reply->locations_size(); ++k) {
+    EXPECT_EQ(reply->locations(k).index(), local->ranked[static_cast<size_t>(k)].index);
+    EXPECT_FLOAT_EQ(reply->locations(k).likelihood(),
+                    local->ranked[static_cast<size_t>(k)].likelihood);
+  }
+  EXPECT_EQ(reply->locations(0).index(), i);
+  EXPECT_FLOAT_EQ(reply->confidence(), local->confidence);
+  EXPECT_EQ(reply->num_features(), static_cast<uint32_t>(test::TourFeatures(i).size()));
+  EXPECT_EQ(reply->timings().decode_ms(), 0.0);
+}
+
+// uint8 descriptors (a quarter of the bytes) still find the right location, and top_k
+// is honoured.
+TEST_F(ServerTest, Uint8FeatureSetAndTopK) {
+  auto reply =
+      client_->Localise(kTestMapName, test::TourFeatures(3), DescriptorEncoding::kUint8, 2);
+  ASSERT_TRUE(reply.ok()) << reply.status().ToString();
+  ASSERT_EQ(reply->locations_size(), 2);
+  EXPECT_EQ(reply->locations(0).index(), 3);
+}
+
+// Several clients at once, each on its own thread and socket, all get correct answers.
+TEST_F(ServerTest, ConcurrentClientsAllAnsweredCorrectly) {
+  constexpr int kClients = 4, kRequests = 4;
+  std::atomic<int> correct{0};
+  std::vector<std::thread> threads;
+  for (int c = 0; c < kClients; ++c) {
+    threads.emplace_back([&, c] {
+      auto client = MustConnect(server_.endpoint);
+      if (client == nullptr) return;
+      for (int r = 0; r < kRequests; ++r) {
+        const int i = (c * kRequests + r) % kTestTourLocations;
+        auto reply = (r % 2 == 0) ? client->Localise(kTestMapName, test::TourFeatures(i))
+                                  : client->Localise(kTestMapName, test::TourJpegs()[i]);
+        if (reply.ok() && !reply->locations().empty() && reply->locations(0).index() == i) {
+          ++correct;
+        }
+      }
+    });
+  }
+  for (auto& t : threads) t.join();
+  EXPECT_EQ(correct.load(), kClients * kRequests);
+}
+
+// A map name the server does not serve gets NOT_FOUND.
+TEST_F(ServerTest, UnknownMapIsNotFound) {
+  v1::Request request = LocaliseFeatures(test::TourFeatures(0));
+  request.mutable_localise()->set_map("no_such_map");
+  auto reply = client_->Call(request);
+  ASSERT_TRUE(reply.ok());
+  EXPECT_EQ(reply->status(), v1::NOT_FOUND);
+  EXPECT_NE(reply->error().find("no_such_map"), std::string::npos);
+  EXPECT_FALSE(reply->has_localise());
+}
+
+// ListMaps names the map with its generation, checksum and size.
+TEST_F(ServerTest, ListMapsShowsTheLoadedMap) {
+  auto maps = client_->ListMaps();
+  ASSERT_TRUE(maps.ok());
+  ASSERT_EQ(maps->maps_size(), 1);
+  EXPECT_EQ(maps->maps(0).version().name(), kTestMapName);
+  EXPECT_EQ(maps->maps(0).version().generation(), 1u);
+  EXPECT_EQ(maps->maps(0).num_locations(), kTestTourLocations);
+  EXPECT_GT(maps->maps(0).num_landmarks(), 100);
+  EXPECT_GT(maps->maps(0).memory_bytes(), 0u);
+}
+
+// ReloadMap reloads the file: a new generation, the same checksum; later answers name it.
+TEST_F(ServerTest, ReloadMapBumpsTheGeneration) {
+  auto reloaded = client_->Reload(kTestMapName);
+  ASSERT_TRUE(reloaded.ok()) << reloaded.status().ToString();
+  EXPECT_EQ(reloaded->map().version().generation(), 2u);
+  auto reply = client_->Localise(kTestMapName, test::TourFeatures(1));
+  ASSERT_TRUE(reply.ok());
+  EXPECT_EQ(reply->map().generation(), 2u);
+  auto missing = client_->Reload("../etc/passwd");
+  EXPECT_EQ(missing.status().code(), StatusCode::kInvalidArgument);
+  auto absent = client_->Reload("absent");
+  EXPECT_EQ(absent.status().code(), StatusCode::kNotFound);
+}
+
+// Every kind of bad input gets its own error reply, while a well-behaved client on
+// another thread keeps getting correct answers; Stats counts each refusal.
+TEST_F(ServerTest, BadInputsGetErrorsWhileOthersAreServed) {
+  std::atomic<bool> done{false};
+  std::atomic<int> good_ok{0}, good_bad{0};
+  std::thread good([&] {
+    auto client = MustConnect(server_.endpoint);
+    for (int n = 0; client != nullptr && (!done || n < 2); ++n) {
+      auto reply = client->Localise(kTestMapName, test::TourFeatures(n % kTestTourLocations));
+      (reply.ok() && reply->locations(0).index() == n % kTestTourLocations ? good_ok : good_bad)++;
+    }
+  });
+
+  auto expect_status = [&](const v1::Request& request, v1::StatusCode code, const char* what) {
+    auto reply = client_->Call(request);
+    ASSERT_TRUE(reply.ok()) << what;
+    EXPECT_EQ(reply->status(), code) << what << ": " << reply->error();
+    EXPECT_FALSE(reply->error().empty()) << what;
+  };
+  const FeatureSet& f = test::TourFeatures(2);
+
+  v1::Request corrupt_jpeg;
+  corrupt_jpeg.mutable_localise()->set_map(kTestMapName);
+  std::string jpeg = test::TourJpegs()[2];
+  corrupt_jpeg.mutable_localise()->set_jpeg(jpeg.substr(0, 300));  // header only, no image
+  expect_status(corrupt_jpeg, v1::INVALID_ARGUMENT, "truncated JPEG");
+  corrupt_jpeg.mutable_localise()->set_jpeg("not a jpeg at all");
+  expect_status(corrupt_jpeg, v1::INVALID_ARGUMENT, "not a JPEG");
+  std::string garbled = jpeg;
+  for (size_t k = garbled.size() / 3; k < garbled.size() - 2; k += 7) garbled[k] = '\xff';
+  corrupt_jpeg.mutable_localise()->set_jpeg(garbled);
+  auto garbled_reply = client_->Call(corrupt_jpeg);  // decodes to junk or fails: no crash
+  ASSERT_TRUE(garbled_reply.ok());
+
+  v1::Request wrong_length = LocaliseFeatures(f);
+  wrong_length.mutable_localise()
+      ->mutable_features()
+      ->mutable_local()
+      ->mutable_float32()
+      ->RemoveLast();
+  expect_status(wrong_length, v1::INVALID_ARGUMENT, "short descriptors");
+
+  v1::Request nan = LocaliseFeatures(f);
+  nan.mutable_localise()->mutable_features()->mutable_context()->set_float32(5, std::nanf(""));
+  expect_status(nan, v1::INVALID_ARGUMENT, "NaN descriptor");
+
+  v1::Request inf_keypoint = LocaliseFeatures(f);
+  inf_keypoint.mutable_localise()->mutable_features()->mutable_keypoints(0)->set_x(INFINITY);
+  expect_status(inf_keypoint, v1::INVALID_ARGUMENT, "infinite keypoint");
+
+  FeatureSet many;
+  many.image_width = 640;
+  many.image_height = 360;
+  many.keypoints.resize(8193);
+  many.local = DescriptorMatrix::Zero(8193, kDescriptorSize);
+  many.context = many.local;
+  expect_status(LocaliseFeatures(many), v1::RESOURCE_EXHAUSTED, "too many keypoints");
+
+  v1::Request oversized;
+  oversized.mutable_localise()->set_map(kTestMapName);
+  oversized.mutable_localise()->set_jpeg(std::string(9 << 20, '\0'));
+  expect_status(oversized, v1::RESOURCE_EXHAUSTED, "oversized message");
+
+  v1::Request no_query;
+  no_query.mutable_localise()->set_map(kTestMapName);
+  expect_status(no_query, v1::INVALID_ARGUMENT, "no query");
+  expect_status(v1::Request(), v1::INVALID_ARGUMENT, "no kind");
+
+  // A frame that is not a protobuf, and a request in too many frames.
+  EXPECT_EQ(RawCall(server_.endpoint, {"", "\xff\xff\xff garbage"}).status(), v1::INVALID_ARGUMENT);
+  EXPECT_EQ(RawCall(server_.endpoint, {"a", "b", "c"}).status(), v1::INVALID_ARGUMENT);
+
+  done = true;
+  good.join();
+  EXPECT_GE(good_ok.load(), 2);
+  EXPECT_EQ(good_bad.load(), 0);
+
+  auto stats = client_->Stats();
+  ASSERT_TRUE(stats.ok());
+  EXPECT_GE(stats->replies_by_status().at("INVALID_ARGUMENT"), 8u);
+  EXPECT_GE(stats->replies_by_status().at("RESOURCE_EXHAUSTED"), 2u);
+  EXPECT_GE(stats->replies_by_status().at("OK"), static_cast<uint64_t>(good_ok.load()));
+  EXPECT_EQ(stats->localise_latency_ms().count(), stats->replies_by_status().at("OK"));
+  EXPECT_GT(stats->localise_latency_ms().p50(), 0.0);
+  EXPECT_LE(stats->localise_latency_ms().p50(), stats->localise_latency_ms().p99());
+}
+
+// A JPEG whose header claims a huge image is refused before it is decoded.
+TEST_F(ServerTest, HugeJpegIsRefusedFromItsHeader) {
+  std::string jpeg = test::TourJpegs()[0];
+  // Patch the frame header (SOF0: FF C0, length, precision, height, width) to 60000x60000.
+  const size_t sof = jpeg.find("\xff\xc0");
+  ASSERT_NE(sof, std::string::npos);
+  jpeg[sof + 5] = jpeg[sof + 7] = static_cast<char>(0xEA);
+  jpeg[sof + 6] = jpeg[sof + 8] = static_cast<char>(0x60);
+  auto reply = client_->Localise(kTestMapName, jpeg);
+  EXPECT_EQ(reply.status().code(), StatusCode::kResourceExhausted);
+  EXPECT_NE(reply.status().message().find("60000x60000"), std::string::npos)
+      << reply.status().message();
+}
+
+// A server with one worker and a queue of one, flooded: every request gets exactly one
+// reply, some OVERLOADED, none dropped.
+TEST(ServerOverloadTest, FullQueueRepliesOverloadedNeverDrops) {
+  ServerOptions options = test::TestServerOptions();
+  options.threads = 1;
+  options.queue_capacity = 1;
+  test::TestServer server = test::StartTestServer(options);
+  ASSERT_NE(server.server, nullptr);
+
+  zmq::context_t context;
+  zmq::socket_t socket(context, zmq::socket_type::dealer);
+  socket.set(zmq::sockopt::linger, 0);
+  socket.connect(server.endpoint);
+  constexpr int kRequests = 24;
+  v1::Request request = LocaliseFeatures(test::TourFeatures(4));
+  for (int i = 1; i <= kRequests; ++i) {
+    request.set_request_id(static_cast<uint64_t>(i));
+    socket.send(zmq::message_t(), zmq::send_flags::sndmore);
+    socket.send(zmq::buffer(request.SerializeAsString()), zmq::send_flags::none);
+  }
+  std::set<uint64_t> ids;
+  int ok = 0, overloaded = 0;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (static_cast<int>(ids.size()) < kRequests && std::chrono::steady_clock::now() < deadline) {
+    zmq::pollitem_t item{socket.handle(), 0, ZMQ_POLLIN, 0};
+    if (zmq::poll(&item, 1, std::chrono::seconds(1)) == 0) continue;
+    std::vector<zmq::message_t> parts;
+    ASSERT_TRUE(zmq::recv_multipart(socket, std::back_inserter(parts)));
+    v1::Reply reply;
+    ASSERT_TRUE(reply.ParseFromArray(parts.back().data(), static_cast<int>(parts.back().size())));
+    EXPECT_TRUE(ids.insert(reply.request_id()).second) << "two replies to " << reply.request_id();
+    if (reply.status() == v1::OK) {
+      ++ok;
+      EXPECT_EQ(reply.localise().locations(0).index(), 4);
+    } else {
+      EXPECT_EQ(reply.status(), v1::OVERLOADED) << reply.error();
+      ++overloaded;
+    }
+  }
+  EXPECT_EQ(static_cast<int>(ids.size()), kRequests);
+  EXPECT_GE(ok, 1);
+  EXPECT_GE(overloaded, 1);
+  EXPECT_EQ(ok + overloaded, kRequests);
+}
+
+// Shutdown with requests queued and running: each gets an answer or UNAVAILABLE, and
+// Shutdown returns.
+TEST(ServerShutdownTest, InFlightRequestsAreAnsweredOnShutdown) {
+  ServerOptions options = test::TestServerOptions();
+  options.threads = 1;
+  options.queue_capacity = 16;
+  test::TestServer server = test::StartTestServer(options);
+  ASSERT_NE(server.server, nullptr);
+  zmq::context_t context;
+  zmq::socket_t socket(context, zmq::socket_type::dealer);
+  socket.set(zmq::sockopt::linger, 0);
+  socket.connect(server.endpoint);
+  constexpr int kRequests = 6;
+  v1::Request request = LocaliseFeatures(test::TourFeatures(6));
+  for (int i = 1; i <= kRequests; ++i) {
+    request.set_request_id(static_cast<uint64_t>(i));
+    socket.send(zmq::message_t(), zmq::send_flags::sndmore);
+    socket.send(zmq::buffer(request.SerializeAsString()), zmq::send_flags::none);
+  }
+  // Wait until the server has taken them all in (Stats counts requests), then stop it.
+  auto client = MustConnect(server.endpoint);
+  for (const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);;) {
+    auto stats = client->Stats();
+    ASSERT_TRUE(stats.ok());
+    if (stats->requests() >= kRequests + 1u) break;
+    ASSERT_LT(std::chrono::steady_clock::now(), deadline);
+  }
+  server.server->Shutdown();
+  int answered = 0;
+  for (int n = 0; n < kRequests; ++n) {
+    zmq::pollitem_t item{socket.handle(), 0, ZMQ_POLLIN, 0};
+    if (zmq::poll(&item, 1, std::chrono::seconds(5)) == 0) break;
+    std::vector<zmq::message_t> parts;
+    ASSERT_TRUE(zmq::recv_multipart(socket, std::back_inserter(parts)));
+    v1::Reply reply;
+    ASSERT_TRUE(reply.ParseFromArray(parts.back().data(), static_cast<int>(parts.back().size())));
+    EXPECT_TRUE(reply.status() == v1::OK || reply.status() == v1::UNAVAILABLE) << reply.error();
+    ++answered;
+  }
+  EXPECT_EQ(answered, kRequests);
+}
+
+}  // namespace
+}  // namespace sceneloc

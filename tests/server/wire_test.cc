@@ -1,0 +1,89 @@
+// proto/wire: feature sets to the wire and back, and every malformed set refused.
+#include "proto/wire.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+namespace sceneloc {
+namespace {
+
+FeatureSet RandomFeatures(int n, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0, 1);
+  FeatureSet f;
+  f.image_width = 640;
+  f.image_height = 360;
+  for (int i = 0; i < n; ++i) f.keypoints.push_back({u(rng) * 640, u(rng) * 360, 4, 90, 0.1f, 3});
+  f.local.resize(n, kDescriptorSize);
+  f.context.resize(n, kDescriptorSize);
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < kDescriptorSize; ++j) {
+      f.local(i, j) = u(rng);
+      f.context(i, j) = u(rng);
+    }
+    f.local.row(i).normalize();
+    f.context.row(i).normalize();
+  }
+  return f;
+}
+
+// float32 round-trips exactly; uint8 within quantisation and still unit-norm.
+TEST(WireTest, RoundTripsBothEncodings) {
+  const FeatureSet f = RandomFeatures(20, 1);
+  v1::FeatureSet wire;
+  EncodeFeatureSet(f, DescriptorEncoding::kFloat32, &wire);
+  auto back = DecodeFeatureSet(wire, {});
+  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  EXPECT_EQ(back->local, f.local);
+  EXPECT_EQ(back->context, f.context);
+  EXPECT_EQ(back->keypoints[3].x, f.keypoints[3].x);
+  EXPECT_EQ(back->keypoints[3].octave, 3);
+
+  EncodeFeatureSet(f, DescriptorEncoding::kUint8, &wire);
+  EXPECT_EQ(wire.local().uint8().size(), 20u * kDescriptorSize);
+  auto quantised = DecodeFeatureSet(wire, {});
+  ASSERT_TRUE(quantised.ok()) << quantised.status().ToString();
+  EXPECT_LT((quantised->local - f.local).cwiseAbs().maxCoeff(), 0.01f);
+  EXPECT_NEAR(quantised->context.row(7).norm(), 1.0f, 1e-5f);
+}
+
+// Wrong lengths, both encodings, unnormalised or non-finite values, bad sizes and too
+// many keypoints are each refused with their code.
+TEST(WireTest, RefusesMalformedSets) {
+  v1::FeatureSet good;
+  EncodeFeatureSet(RandomFeatures(5, 2), DescriptorEncoding::kFloat32, &good);
+  auto code = [](const v1::FeatureSet& w, FeatureSetLimits limits = {}) {
+    return DecodeFeatureSet(w, limits).status().code();
+  };
+  v1::FeatureSet w = good;
+  w.mutable_local()->mutable_float32()->Add(0.0f);
+  EXPECT_EQ(code(w), StatusCode::kInvalidArgument);
+  w = good;
+  w.mutable_context()->set_uint8(std::string(5 * kDescriptorSize, '\1'));
+  EXPECT_EQ(code(w), StatusCode::kInvalidArgument);  // both encodings
+  w = good;
+  w.mutable_local()->set_float32(0, 50.0f);
+  EXPECT_EQ(code(w), StatusCode::kInvalidArgument);  // not unit-norm
+  w = good;
+  w.mutable_local()->set_float32(0, NAN);
+  EXPECT_EQ(code(w), StatusCode::kInvalidArgument);
+  w = good;
+  w.mutable_keypoints(2)->set_angle(-INFINITY);
+  EXPECT_EQ(code(w), StatusCode::kInvalidArgument);
+  w = good;
+  w.set_image_width(0);
+  EXPECT_EQ(code(w), StatusCode::kInvalidArgument);
+  w = good;
+  w.set_image_height(100000);
+  EXPECT_EQ(code(w), StatusCode::kResourceExhausted);
+  EXPECT_EQ(code(good, {4, 8192}), StatusCode::kResourceExhausted);
+  EXPECT_EQ(code(good), StatusCode::kOk);
+  w = good;
+  w.mutable_local()->clear_float32();
+  EXPECT_EQ(code(w), StatusCode::kInvalidArgument);  // neither encoding
+}
+
+}  // namespace
+}  // namespace sceneloc
