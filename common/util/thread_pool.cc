@@ -79,9 +79,10 @@ void ThreadPool::ParallelFor(size_t n, size_t min_chunk,
                              const std::function<void(size_t, size_t)>& fn) {
   if (n == 0) return;
   min_chunk = std::max<size_t>(1, min_chunk);
-  // A few chunks per thread balance uneven work without much scheduling overhead.
-  const size_t target_chunks = static_cast<size_t>(num_threads_) * 4;
-  const size_t chunk = std::max(min_chunk, (n + target_chunks - 1) / target_chunks);
+  // Several chunks per thread balance uneven work (e.g. RANSAC runs of different lengths)
+  // without much scheduling overhead; a short loop gets one item per chunk.
+  const size_t target_chunks = static_cast<size_t>(num_threads_) * 8;
+  const size_t chunk = std::max(min_chunk, n / target_chunks);
   const size_t num_chunks = (n + chunk - 1) / chunk;
   if (num_threads_ == 1 || num_chunks == 1) {
     fn(0, n);
