@@ -118,6 +118,47 @@ float Ratio(double first, double second) {
   return first + second > 0 ? static_cast<float>(first / (first + second)) : 0.0f;
 }
 
+// What verification found for each location (-1 inliers: not verified).
+struct Evidence {
+  std::vector<int> inliers;
+  std::vector<float> log_scale;
+  std::vector<double> score;  // inliers, weighted by scale agreement
+};
+
+// Verifies the first options.verify_top locations of `order` and re-sorts them by their
+// verified score (stable, so L breaks ties).
+Evidence VerifyAndRerank(const FeatureSet& features, const Map& map, const FrameScores& scores,
+                         const MatchOptions& options, ThreadPool* pool, std::vector<int>* order) {
+  const size_t n = scores.likelihood.size();
+  Evidence e{std::vector<int>(n, -1), std::vector<float>(n, 0.0f), std::vector<double>(n, 0.0)};
+  const size_t verified = std::min(order->size(), static_cast<size_t>(options.verify_top));
+  if (verified == 0) return e;
+  // One task per candidate; each RANSAC is independent.
+  auto verify = [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
+      const int l = (*order)[i];
+      const Verification v =
+          VerifyCandidate(features, map, l, scores.best_score, scores.best_feature,
+                          options.verify_ransac_px, options.verify_ransac_iterations);
+      e.inliers[l] = v.inliers;
+      e.log_scale[l] = v.log_scale;
+      e.score[l] = v.inliers;
+      if (options.verify_scale_sigma > 0) {
+        const double s = options.verify_scale_sigma;
+        e.score[l] *= std::exp(-v.log_scale * v.log_scale / (2 * s * s));
+      }
+    }
+  };
+  if (pool != nullptr) {
+    pool->ParallelFor(verified, 1, verify);
+  } else {
+    verify(0, verified);
+  }
+  std::stable_sort(order->begin(), order->begin() + static_cast<std::ptrdiff_t>(verified),
+                   [&](int a, int b) { return e.score[a] > e.score[b]; });
+  return e;
+}
+
 }  // namespace
 
 StatusOr<LocaliseResult> Localise(const FeatureSet& features, const Map& map,
@@ -132,48 +173,20 @@ StatusOr<LocaliseResult> Localise(const FeatureSet& features, const Map& map,
   result.timings.likelihood_ms += stage.Milliseconds();
 
   stage.Reset();
-  const size_t verified = std::min(order.size(), static_cast<size_t>(options.verify_top));
-  std::vector<int> inliers(likelihood.size(), -1);
-  std::vector<float> log_scale(likelihood.size(), 0.0f);
-  std::vector<double> verified_score(likelihood.size(), 0.0);
-  if (verified > 0) {
-    // Candidates are verified one per task; each RANSAC is independent.
-    auto verify = [&](size_t begin, size_t end) {
-      for (size_t i = begin; i < end; ++i) {
-        const int l = order[i];
-        const Verification v =
-            VerifyCandidate(features, map, l, scores.best_score, scores.best_feature,
-                            options.verify_ransac_px, options.verify_ransac_iterations);
-        inliers[l] = v.inliers;
-        log_scale[l] = v.log_scale;
-        verified_score[l] = v.inliers;
-        if (options.verify_scale_sigma > 0) {
-          const double s = options.verify_scale_sigma;
-          verified_score[l] *= std::exp(-v.log_scale * v.log_scale / (2 * s * s));
-        }
-      }
-    };
-    if (pool != nullptr) {
-      pool->ParallelFor(verified, 1, verify);
-    } else {
-      verify(0, verified);
-    }
-    std::stable_sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(verified),
-                     [&](int a, int b) { return verified_score[a] > verified_score[b]; });
-  }
+  const Evidence evidence = VerifyAndRerank(features, map, scores, options, pool, &order);
   result.timings.verify_ms = stage.Milliseconds();
 
   const size_t k = std::min(order.size(), static_cast<size_t>(options.top_k));
   for (size_t i = 0; i < k; ++i) {
-    result.ranked.push_back({order[i], map.image_names[order[i]], likelihood[order[i]],
-                             inliers[order[i]], log_scale[order[i]]});
+    const int l = order[i];
+    result.ranked.push_back(
+        {l, map.image_names[l], likelihood[l], evidence.inliers[l], evidence.log_scale[l]});
   }
   if (order.size() >= 2) {
     // Verified scores decide when the best candidate has any geometric support; with none
     // (e.g. too few correspondences), the ranking and its confidence are L's.
-    const bool by_verification = verified >= 2 && verified_score[order[0]] > 0;
-    result.confidence = by_verification ? Ratio(verified_score[order[0]], verified_score[order[1]])
-                                        : Ratio(likelihood[order[0]], likelihood[order[1]]);
+    const double s1 = evidence.score[order[0]], s2 = evidence.score[order[1]];
+    result.confidence = s1 > 0 ? Ratio(s1, s2) : Ratio(likelihood[order[0]], likelihood[order[1]]);
   } else if (!order.empty() && likelihood[order[0]] > 0) {
     result.confidence = 1.0f;
   }

@@ -6,7 +6,9 @@
 //   S_N  neighbourhood similarity with S_A               (neighbourhood.h, eq. 2)
 //   S    = S_D * S_N
 //   L(l) = sum_{g in G_l} max_f S(f, g) / |G_l|          (eq. 3)
-//   confidence = L1 / (L1 + L2)
+//   the verify_top best locations re-ranked by epipolar inliers weighted by keypoint-scale
+//   agreement (verification.h; our departure, verify_top = 0 turns it off)
+//   confidence = L1 / (L1 + L2), or the same ratio of the two best verified scores
 #pragma once
 
 #include <string>
