@@ -131,8 +131,6 @@ int main(int argc, char** argv) {
   if (!paths.ok()) return Fail(paths.status().message());
   std::vector<std::string> names;
   for (const auto& p : *paths) names.push_back(sceneloc::FileName(p));
-  auto truth = sceneloc::ResolveTruth(names, map->image_names, ground_truth);
-  if (!truth.ok()) return Fail(truth.status().message());
 
   // Queries are extracted one at a time so extract times are those of one frame on one core.
   const auto extractor = sceneloc::FeatureExtractor::Create(map->options.extractor);
@@ -146,9 +144,12 @@ int main(int argc, char** argv) {
     if (!features.ok()) return Fail((*paths)[q] + ": " + features.status().message());
     outcomes[q].extract_ms = watch.Milliseconds();
     outcomes[q].name = names[q];
-    outcomes[q].truth = (*truth)[q];
     queries.push_back(std::move(features).value());
   }
+  // After reading the images, so a file that is not an image is reported as such.
+  auto truth = sceneloc::ResolveTruth(names, map->image_names, ground_truth);
+  if (!truth.ok()) return Fail(truth.status().message());
+  for (size_t q = 0; q < outcomes.size(); ++q) outcomes[q].truth = (*truth)[q];
 
   std::vector<sceneloc::FeatureSet> tour;
   if (with_baseline) {

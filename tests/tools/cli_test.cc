@@ -142,5 +142,25 @@ TEST_F(CliTest, EvalRefusesBadMaps) {
                      {"Image000.jpg", "not a sceneloc map"});
 }
 
+// sceneloc-eval on query folders it cannot use: a non-image file, an empty folder, and a
+// query with no tour image of its name.
+TEST_F(CliTest, EvalRefusesBadQueryFolders) {
+  const std::string map = (dir_ / "q.scnl").string();
+  ASSERT_EQ(RunCommand(Train((dir_ / "tour").string(), map)).exit_code, 0);
+  const std::string eval = std::string(SCENELOC_EVAL_BIN) + " --map '" + map + "' --queries ";
+  fs::create_directories(dir_ / "q_notes");
+  fs::copy(dir_ / "test", dir_ / "q_notes", fs::copy_options::recursive);
+  std::ofstream(dir_ / "q_notes" / "notes.txt") << "not an image\n";
+  ExpectOneLineError(RunCommand(eval + "'" + (dir_ / "q_notes").string() + "'"),
+                     {"notes.txt", "not a readable image"});
+  fs::create_directories(dir_ / "q_empty");
+  ExpectOneLineError(RunCommand(eval + "'" + (dir_ / "q_empty").string() + "'"),
+                     {"q_empty", "no image"});
+  fs::create_directories(dir_ / "q_stranger");
+  fs::copy_file(dir_ / "test" / "Image001.jpg", dir_ / "q_stranger" / "Elsewhere.jpg");
+  ExpectOneLineError(RunCommand(eval + "'" + (dir_ / "q_stranger").string() + "'"),
+                     {"Elsewhere.jpg", "not a tour image"});
+}
+
 }  // namespace
 }  // namespace sceneloc
