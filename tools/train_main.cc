@@ -33,7 +33,7 @@ void PrintSummary(const sceneloc::TrainSummary& s, const std::string& out, doubl
               static_cast<double>(s.features) / static_cast<double>(s.images));
   std::printf("  links                %zu candidate, %zu verified by RANSAC\n", s.candidate_links,
               s.verified_links);
-  std::printf("  tracks (>= 2 images) %zu, mean length %.2f, max %zu\n", s.tracks,
+  std::printf("  tracks (candidates)  %zu, mean length %.2f, max %zu\n", s.tracks,
               s.mean_track_length, s.max_track_length);
   std::printf("  landmarks kept       %zu of %zu\n", s.landmarks_kept,
               s.landmarks_before_selection);

@@ -20,7 +20,7 @@ struct TrainSummary {
   size_t features = 0;
   size_t candidate_links = 0;
   size_t verified_links = 0;
-  size_t tracks = 0;
+  size_t tracks = 0;  // landmark candidates: tracks of at least min_track_length images
   double mean_track_length = 0;
   size_t max_track_length = 0;
   size_t landmarks_before_selection = 0;
