@@ -126,12 +126,14 @@ StatusOr<std::shared_ptr<const LoadedMap>> MapRegistry::Load(const std::string& 
 }
 
 bool MapRegistry::Remove(const std::string& name) {
-  std::shared_ptr<const LoadedMap> dropped;  // freed outside the lock
+  std::lock_guard<std::mutex> load_lock(load_mutex_);
+  std::shared_ptr<const LoadedMap> dropped;  // freed after the lock, if no request holds it
   std::lock_guard<std::mutex> lock(mutex_);
   const auto it = maps_.find(name);
   if (it == maps_.end()) return false;
   dropped = std::move(it->second);
   maps_.erase(it);
+  ++unloads_;
   return true;
 }
 
@@ -160,6 +162,11 @@ uint64_t MapRegistry::loads() const {
 uint64_t MapRegistry::load_failures() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return load_failures_;
+}
+
+uint64_t MapRegistry::unloads() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return unloads_;
 }
 
 }  // namespace sceneloc

@@ -65,6 +65,7 @@ class MapRegistry {
   StatusOr<std::shared_ptr<const LoadedMap>> Load(const std::string& path);
 
   // Stops serving `name`; requests holding its snapshot finish on it. False when absent.
+  // Waits for a Load() in progress, so a load and a removal never interleave.
   bool Remove(const std::string& name);
 
   // Loads every *.scnl file in `dir` (in name order). Each failure is appended to
@@ -74,6 +75,7 @@ class MapRegistry {
 
   uint64_t loads() const;          // successful loads so far
   uint64_t load_failures() const;  // failed loads so far
+  uint64_t unloads() const;        // successful Remove() calls so far
 
  private:
   Status SelfTest(const Map& map) const;
@@ -87,6 +89,7 @@ class MapRegistry {
   std::map<std::string, uint64_t> generations_;  // kept after Remove, so numbers only grow
   uint64_t loads_ = 0;
   uint64_t load_failures_ = 0;
+  uint64_t unloads_ = 0;
 };
 
 // A feature set made from the landmarks tour image `location` holds: each landmark's mean

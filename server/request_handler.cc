@@ -170,11 +170,29 @@ Status RequestHandler::HandleLocalise(const v1::LocaliseRequest& request,
   return Status::Ok();
 }
 
-Status RequestHandler::HandleReload(const v1::ReloadMapRequest& request,
-                                    v1::ReloadMapReply* reply) const {
+Status RequestHandler::CheckReload(const v1::ReloadMapRequest& request) {
   if (!IsPlainName(request.map())) {
     return InvalidArgument("'" + request.map() + "' is not a map name (a plain file stem)");
   }
+  return Status::Ok();
+}
+
+void RequestHandler::FillReloadReply(uint64_t request_id,
+                                     const StatusOr<std::shared_ptr<const LoadedMap>>& loaded,
+                                     v1::Reply* reply) {
+  reply->Clear();
+  reply->set_request_id(request_id);
+  if (loaded.ok()) {
+    FillMapInfo(**loaded, reply->mutable_reload_map()->mutable_map());
+    return;
+  }
+  reply->set_status(ToWireCode(loaded.status().code()));
+  reply->set_error(loaded.status().message());
+}
+
+Status RequestHandler::HandleReload(const v1::ReloadMapRequest& request,
+                                    v1::ReloadMapReply* reply) const {
+  SCENELOC_RETURN_IF_ERROR(CheckReload(request));
   const std::string path =
       (std::filesystem::path(options_.maps_dir) / (request.map() + kMapFileExtension)).string();
   SCENELOC_ASSIGN_OR_RETURN(const auto loaded, registry_->Load(path));
@@ -202,6 +220,7 @@ void RequestHandler::HandleStats(v1::StatsReply* reply) const {
   latency->set_max(s.latency_max_ms);
   reply->set_map_loads(registry_->loads());
   reply->set_map_load_failures(registry_->load_failures());
+  reply->set_map_unloads(registry_->unloads());
   for (const auto& map : registry_->List()) FillMapInfo(*map, reply->add_maps());
 }
 

@@ -6,7 +6,8 @@
 //              map's settings   |  or: decode + check the feature set
 //              -> Localise (common/matching/localiser.h) -> ranked locations, timings
 //   list_maps, stats:  read the registry and the counters
-//   reload_map:        MapRegistry::Load of <maps_dir>/<name>.scnl
+//   reload_map:        MapRegistry::Load of <maps_dir>/<name>.scnl (the server runs it on
+//                      its map loader thread instead: CheckReload + FillReloadReply)
 //
 // Thread-safe: Handle may run on any number of threads at once.
 #pragma once
@@ -35,6 +36,14 @@ class RequestHandler {
   // True for requests cheap enough to answer on the I/O thread (stats, list_maps), so a
   // health check is answered even when every worker is busy.
   static bool IsCheap(const v1::Request& request);
+
+  // InvalidArgument unless the request names a map by a plain file stem (one that cannot
+  // reach outside the maps directory).
+  static Status CheckReload(const v1::ReloadMapRequest& request);
+  // Fills `reply` (cleared first) to request `request_id` from a finished reload.
+  static void FillReloadReply(uint64_t request_id,
+                              const StatusOr<std::shared_ptr<const LoadedMap>>& loaded,
+                              v1::Reply* reply);
 
  private:
   Status HandleLocalise(const v1::LocaliseRequest& request,

@@ -12,7 +12,9 @@
 
 #include "common/util/thread_pool.h"
 #include "proto/sceneloc.pb.h"
+#include "proto/wire.h"
 #include "server/bounded_queue.h"
+#include "server/map_loader.h"
 #include "server/request_handler.h"
 #include "server/server_stats.h"
 
@@ -121,7 +123,8 @@ class ZmqServer final : public Server {
         queue_(static_cast<size_t>(options.queue_capacity)),
         frontend_(context_, zmq::socket_type::router),
         replies_(context_, zmq::socket_type::pull),
-        control_(context_, zmq::socket_type::pull) {}
+        control_(context_, zmq::socket_type::pull),
+        loader_push_(context_, zmq::socket_type::push) {}
 
   ~ZmqServer() override { Shutdown(); }
 
@@ -133,19 +136,35 @@ class ZmqServer final : public Server {
       endpoint_ = frontend_.get(zmq::sockopt::last_endpoint);
       replies_.bind(kRepliesEndpoint);
       control_.bind(kControlEndpoint);
+      loader_push_.set(zmq::sockopt::linger, -1);
+      loader_push_.connect(kRepliesEndpoint);
     } catch (const zmq::error_t& e) {
       return IoError("cannot bind '" + options_.endpoint + "': " + e.what());
     }
     return Status::Ok();
   }
 
-  void StartThreads() {
+  Status StartThreads() {
+    MapLoader::Options loader_options;
+    loader_options.maps_dir = options_.maps_dir;
+    loader_options.watch = options_.watch_maps;
+    loader_options.debounce = std::chrono::milliseconds(options_.reload_debounce_ms);
+    auto loader = MapLoader::Start(loader_options, registry_);
+    if (!loader.ok()) return loader.status();
+    loader_ = std::move(loader).value();
     for (int i = 0; i < options_.threads; ++i) workers_.emplace_back([this] { WorkerLoop(); });
     // The sockets move to the I/O thread here; thread creation orders the accesses.
     io_thread_ = std::thread([this] { IoLoop(); });
+    return Status::Ok();
   }
 
   std::string endpoint() const override { return endpoint_; }
+
+  void ReloadAll() override { loader_->ReloadAll(); }
+
+  bool WaitForLoader(std::chrono::milliseconds timeout) override {
+    return loader_->WaitIdle(timeout);
+  }
 
   void Shutdown() override {
     std::lock_guard<std::mutex> lock(shutdown_mutex_);
@@ -267,6 +286,7 @@ class ZmqServer final : public Server {
   }
 
   void Dispatch(std::unique_ptr<Job> job) {
+    if (job->request.kind_case() == v1::Request::kReloadMap) return DispatchReload(std::move(job));
     if (RequestHandler::IsCheap(job->request)) {
       v1::Reply reply;
       handler_.Handle(job->request, job->received, &reply);
@@ -286,7 +306,43 @@ class ZmqServer final : public Server {
     SendReply(frontend_, job->identity, job->delimited, reply);
   }
 
-  // Moves one finished reply from a worker to its client.
+  // Hands a ReloadMap request to the loader thread, which answers it through loader_push_.
+  void DispatchReload(std::unique_ptr<Job> job) {
+    const uint64_t id = job->request.request_id();
+    auto refuse = [&](v1::StatusCode code, const std::string& error) {
+      const v1::Reply reply = ErrorReply(id, code, error);
+      RecordAndLog(&stats_, "reload_map", reply, job->received);
+      SendReply(frontend_, job->identity, job->delimited, reply);
+    };
+    const Status checked = RequestHandler::CheckReload(job->request.reload_map());
+    if (!checked.ok()) return refuse(ToWireCode(checked.code()), checked.message());
+    const std::string map = job->request.reload_map().map();
+    std::shared_ptr<Job> shared = std::move(job);
+    const bool queued = loader_->Reload(map, [this, shared](const MapLoader::LoadResult* loaded) {
+      // On the loader thread: the only user of loader_push_.
+      v1::Reply reply;
+      if (loaded != nullptr) {
+        RequestHandler::FillReloadReply(shared->request.request_id(), *loaded, &reply);
+      } else {
+        reply = ErrorReply(shared->request.request_id(), v1::UNAVAILABLE,
+                           "server shut down before the reload was started");
+      }
+      RecordAndLog(&stats_, "reload_map", reply, shared->received);
+      try {
+        SendReply(loader_push_, shared->identity, shared->delimited, reply);
+      } catch (const zmq::error_t& e) {
+        spdlog::error("map loader: cannot pass a reply to the I/O thread: {}", e.what());
+      }
+    });
+    if (queued) {
+      ++outstanding_;
+      return;
+    }
+    job = std::make_unique<Job>(std::move(*shared));
+    refuse(v1::UNAVAILABLE, "server is shutting down");
+  }
+
+  // Moves one finished reply from a worker or the loader to its client.
   void ForwardReply() {
     bool more = true;
     while (more) {
@@ -307,6 +363,7 @@ class ZmqServer final : public Server {
       --outstanding_;
     }
     for (std::thread& worker : workers_) worker.join();
+    loader_->Stop();  // finishes its load; queued reloads are answered UNAVAILABLE
     try {
       while (outstanding_ > 0 && replies_.handle() != nullptr) {
         zmq::pollitem_t item{replies_.handle(), 0, ZMQ_POLLIN, 0};
@@ -320,6 +377,7 @@ class ZmqServer final : public Server {
     frontend_.close();
     replies_.close();
     control_.close();
+    loader_push_.close();  // the loader thread has ended
   }
 
   void LogSummary() const {
@@ -333,9 +391,10 @@ class ZmqServer final : public Server {
     }
     spdlog::info(
         "summary: {} requests, {} in flight, replies:{}; localise p50 {:.1f} ms, p90 {:.1f} ms, "
-        "p99 {:.1f} ms (n={}); maps:{}",
+        "p99 {:.1f} ms (n={}); maps:{}; map loads {} ok, {} failed, {} unloaded",
         s.requests, s.in_flight, statuses.empty() ? " none" : statuses, s.latency_p50_ms,
-        s.latency_p90_ms, s.latency_p99_ms, s.latency_count, maps.empty() ? " none" : maps);
+        s.latency_p90_ms, s.latency_p99_ms, s.latency_count, maps.empty() ? " none" : maps,
+        registry_->loads(), registry_->load_failures(), registry_->unloads());
   }
 
   // --- worker threads ---
@@ -369,10 +428,12 @@ class ZmqServer final : public Server {
   zmq::socket_t frontend_;
   zmq::socket_t replies_;
   zmq::socket_t control_;
-  size_t outstanding_ = 0;  // queued or running jobs; I/O thread only
+  zmq::socket_t loader_push_;  // owned by the loader thread once it runs
+  size_t outstanding_ = 0;     // queued or running jobs; I/O thread only
 
   std::string endpoint_;  // constant after Bind()
   std::vector<std::thread> workers_;
+  std::unique_ptr<MapLoader> loader_;  // set by StartThreads(); stopped by FinishDrain()
   std::mutex shutdown_mutex_;
   std::thread io_thread_;  // guarded by shutdown_mutex_ after StartThreads()
 };
@@ -384,10 +445,10 @@ StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options,
   SCENELOC_RETURN_IF_ERROR(options.Validate());
   auto server = std::make_unique<ZmqServer>(options, registry);
   SCENELOC_RETURN_IF_ERROR(server->Bind());
-  server->StartThreads();
-  spdlog::info("serving {} map(s) on {} with {} worker(s), queue capacity {}",
-               registry->List().size(), server->endpoint(), options.threads,
-               options.queue_capacity);
+  SCENELOC_RETURN_IF_ERROR(server->StartThreads());
+  spdlog::info("serving {} map(s) on {} with {} worker(s), queue capacity {}{}",
+               registry->List().size(), server->endpoint(), options.threads, options.queue_capacity,
+               options.watch_maps ? ", watching " + options.maps_dir : std::string());
   return std::unique_ptr<Server>(std::move(server));
 }
 

@@ -7,9 +7,13 @@
 //                 │                                                 ▼
 //                 └──── inproc PULL ◀── PUSH (one per worker) ◀── workers: RequestHandler
 //
+// ReloadMap requests go to the map loader thread instead (server/map_loader.h), which also
+// follows the maps directory and SIGHUP: a slow load never holds a worker; its reply
+// takes the workers' path (a PUSH of its own into the same PULL).
+//
 // ZeroMQ sockets are not thread-safe, so each has one owner thread: the I/O thread owns the
-// ROUTER and the PULL, each worker its own PUSH. Every request gets exactly one reply
-// (an answer, an error, OVERLOADED or UNAVAILABLE), except one larger than ZMQ_MAXMSGSIZE
+// ROUTER and the PULL, each worker and the loader its own PUSH. Every request gets exactly one
+// reply (an answer, an error, OVERLOADED or UNAVAILABLE), except one larger than ZMQ_MAXMSGSIZE
 // (twice limits.max_message_bytes), whose sender ZeroMQ disconnects.
 //
 // Framing: a request is [identity][empty][Request] (what REQ sends, and what a DEALER
@@ -18,6 +22,7 @@
 // Thread-safe: endpoint() and Shutdown() may be called from any thread.
 #pragma once
 
+#include <chrono>
 #include <memory>
 #include <string>
 
@@ -32,14 +37,24 @@ class Server {
   virtual ~Server() = default;  // Shutdown()s first
 
   // Binds options.endpoint and starts serving the maps of `registry` (which must outlive
-  // the server; it may be changed while serving). Errors: invalid options
-  // (InvalidArgument), an endpoint that cannot be bound (IoError, naming it).
+  // the server; it may be changed while serving), and the map loader (watching
+  // options.maps_dir when options.watch_maps). Errors: invalid options (InvalidArgument),
+  // an endpoint that cannot be bound or a maps directory that cannot be watched (IoError,
+  // naming it).
   static StatusOr<std::unique_ptr<Server>> Start(const ServerOptions& options,
                                                  MapRegistry* registry);
 
   // The endpoint actually bound (ZMQ_LAST_ENDPOINT): tcp://127.0.0.1:* becomes the port
   // the system chose.
   virtual std::string endpoint() const = 0;
+
+  // Queues a reload of every map file in options.maps_dir on the loader thread, and the
+  // unloading of maps whose file is gone (what SIGHUP does). Returns at once.
+  virtual void ReloadAll() = 0;
+
+  // Waits until the loader has acted on everything queued and every change of the maps
+  // directory seen before the call (tests use it). False at the timeout.
+  virtual bool WaitForLoader(std::chrono::milliseconds timeout) = 0;
 
   // Stops taking new work (requests arriving now get UNAVAILABLE), waits up to
   // options.drain_timeout_s for the requests in flight to be answered (those still

@@ -3,7 +3,9 @@
 //                   [--threads N] [any other settings field as --flag VALUE]
 // Loads every *.scnl in the maps directory, serves them on a ZeroMQ ROUTER socket and
 // runs until SIGTERM or SIGINT (drains in-flight requests, exits 0). SIGHUP reloads every
-// map file in the directory (a failure leaves that map's old version serving).
+// map file in the directory on the map loader thread (a failure leaves that map's old
+// version serving; a map whose file is gone is unloaded); with server.watch_maps the
+// directory is also followed as it changes.
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
@@ -96,7 +98,7 @@ int main(int argc, char** argv) {
     if (sigwait(&signals, &signal) != 0) continue;
     if (signal == SIGHUP) {
       spdlog::info("SIGHUP: reloading the maps in {}", options.maps_dir);
-      (void)LoadAll(&registry, options.maps_dir);
+      (*server)->ReloadAll();
       continue;
     }
     spdlog::info("{}: stopping", signal == SIGTERM ? "SIGTERM" : "SIGINT");

@@ -16,6 +16,10 @@ SettingTable Fields(ServerOptions* o) {
   SettingTable table = {
       {"server", "maps_dir", &o->maps_dir, 0, 0,
        "folder of map files (*.scnl), served by file stem", "maps"},
+      {"server", "watch_maps", &o->watch_maps, 0, 0,
+       "load/unload maps as their files change in maps_dir (inotify)"},
+      {"server", "reload_debounce_ms", &o->reload_debounce_ms, 0, 60000,
+       "act on a map file's changes once quiet this long, ms"},
       {"server", "endpoint", &o->endpoint, 0, 0, "ZeroMQ endpoint to bind, e.g. tcp://*:5555"},
       {"server", "threads", &o->threads, 1, 256, "worker threads"},
       {"server", "queue_capacity", &o->queue_capacity, 1, 1000000,
@@ -55,6 +59,7 @@ Status RequestLimits::Validate() const {
 Status ServerOptions::Validate() const {
   if (maps_dir.empty()) return InvalidArgument("maps_dir must be set");
   if (endpoint.empty()) return InvalidArgument("endpoint must be set");
+  if (reload_debounce_ms < 0) return InvalidArgument("reload_debounce_ms must be >= 0");
   if (threads < 1) return InvalidArgument("threads must be >= 1");
   if (queue_capacity < 1) return InvalidArgument("queue_capacity must be >= 1");
   if (spdlog::level::from_str(log_level) == spdlog::level::off && log_level != "off") {

@@ -1,7 +1,7 @@
 // sceneloc-server's settings: configs/server.yaml, every field also a command-line flag.
 //
-//   server:    maps_dir, endpoint, threads, queue_capacity, log_level,
-//              summary_interval_s, drain_timeout_s
+//   server:    maps_dir, watch_maps, reload_debounce_ms, endpoint, threads, queue_capacity,
+//              log_level, summary_interval_s, drain_timeout_s
 //   limits:    max_message_bytes, max_image_side, max_image_pixels, max_keypoints, max_top_k
 //   matching:  as configs/match.yaml (common/config/config.h)
 //
@@ -38,6 +38,12 @@ struct RequestLimits {
 struct ServerOptions {
   // Folder of map files (*.scnl); each is served under its file stem.
   std::string maps_dir = "maps";
+  // Follow maps_dir's changes (inotify): a map file written or renamed into place is
+  // loaded, a deleted one unloaded. Off: only SIGHUP and ReloadMap requests reload.
+  bool watch_maps = true;
+  // A map file's changes are acted on once it has been quiet this long, milliseconds
+  // (coalesces the events of one write or copy).
+  int reload_debounce_ms = 100;
   // ZeroMQ endpoint the ROUTER socket binds, e.g. tcp://*:5555 or tcp://127.0.0.1:*.
   std::string endpoint = "tcp://*:5555";
   // Worker threads that localise requests (also the engine's ParallelFor width).

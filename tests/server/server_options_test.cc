@@ -23,6 +23,8 @@ TEST(ServerOptionsTest, ShippedFileLoads) {
   EXPECT_EQ(options.endpoint, "tcp://*:5555");
   EXPECT_EQ(options.threads, 2);
   EXPECT_EQ(options.limits.max_keypoints, 8192);
+  EXPECT_TRUE(options.watch_maps);
+  EXPECT_EQ(options.reload_debounce_ms, 100);
   EXPECT_EQ(options.matching.verify_top, MatchOptions().verify_top);
 }
 
@@ -54,11 +56,15 @@ TEST(ServerOptionsTest, FlagsOverrideWithTheSameChecks) {
   ASSERT_TRUE(ApplyServerFlag(Flag("s-min"), "0.4", &options).ok());
   ASSERT_TRUE(ApplyServerFlag(Flag("use-neighbourhood"), "false", &options).ok());
   ASSERT_TRUE(ApplyServerFlag(Flag("max-message-bytes"), "1048576", &options).ok());
+  ASSERT_TRUE(ApplyServerFlag(Flag("watch-maps"), "false", &options).ok());
+  EXPECT_FALSE(ApplyServerFlag(Flag("reload-debounce-ms"), "-1", &options).ok());
   EXPECT_EQ(options.maps_dir, "/srv/maps");
   EXPECT_EQ(options.threads, 4);
   EXPECT_EQ(options.matching.s_min, 0.4);
   EXPECT_FALSE(options.matching.use_neighbourhood);
   EXPECT_EQ(options.limits.max_message_bytes, 1048576);
+  EXPECT_FALSE(options.watch_maps);
+  EXPECT_EQ(options.reload_debounce_ms, 100);
   const Status bad = ApplyServerFlag(Flag("threads"), "0", &options);
   EXPECT_NE(bad.message().find("--threads"), std::string::npos) << bad.message();
   EXPECT_FALSE(ApplyServerFlag(Flag("s-min"), "2", &options).ok());
@@ -68,11 +74,11 @@ TEST(ServerOptionsTest, FlagsOverrideWithTheSameChecks) {
   ASSERT_TRUE(ParseServerOptions(ServerOptionsToYaml(options), "yaml", &again).ok());
   EXPECT_EQ(again.maps_dir, "/srv/maps");
   EXPECT_EQ(again.matching.s_min, 0.4);
-  // One flag per field: 12 server and limits fields, and every matching field.
+  // One flag per field: 14 server and limits fields, and every matching field.
   const std::vector<ServerFlag> flags = ServerFlags();
   const auto matching = std::count_if(flags.begin(), flags.end(),
                                       [](const ServerFlag& f) { return f.section == "matching"; });
-  EXPECT_EQ(flags.size() - static_cast<size_t>(matching), 12u);
+  EXPECT_EQ(flags.size() - static_cast<size_t>(matching), 14u);
   EXPECT_GE(matching, 10);
 }
 

@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <filesystem>
 #include <zmq.hpp>
 #include <zmq_addon.hpp>
 
@@ -148,6 +149,42 @@ TEST(ServerProcessTest, SigtermDrainsInFlightRequestsAndExitsZero) {
   EXPECT_EQ(ok, kRequests);
   EXPECT_EQ(server.Wait(std::chrono::seconds(30)), 0) << server.output();
   EXPECT_NE(server.output().find("SIGTERM"), std::string::npos);
+}
+
+// SIGHUP reloads every map file in the folder (with the watch off, so only the signal can
+// have done it): the served map's generation goes up, and a new file becomes a map.
+TEST(ServerProcessTest, SighupReloadsTheMaps) {
+  test::TempMapsDir dir("sighup");
+  ServerProcess server({"--maps", dir.path(), "--endpoint", "tcp://127.0.0.1:*", "--watch-maps",
+                        "false", "--summary-interval", "0", "--log-level", "info"});
+  ASSERT_TRUE(server.WaitForOutput("serving", std::chrono::seconds(30))) << server.output();
+  ClientOptions options;
+  options.timeout_ms = 20000;
+  auto client = Client::Connect(LoggedEndpoint(server.output()), options);
+  ASSERT_TRUE(client.ok());
+  auto before = (*client)->ListMaps();
+  ASSERT_TRUE(before.ok()) << before.status().ToString();
+  ASSERT_EQ(before->maps_size(), 1);
+  EXPECT_EQ(before->maps(0).version().generation(), 1u);
+
+  std::filesystem::copy_file(dir.MapPath(), dir.MapPath("annex"));
+  server.Signal(SIGHUP);
+  ASSERT_TRUE(server.WaitForOutput("map synthetic generation 2", std::chrono::seconds(20)))
+      << server.output();
+  ASSERT_TRUE(server.WaitForOutput("map annex generation 1", std::chrono::seconds(20)))
+      << server.output();
+  auto after = (*client)->ListMaps();
+  ASSERT_TRUE(after.ok());
+  ASSERT_EQ(after->maps_size(), 2);
+  EXPECT_EQ(after->maps(0).version().name(), "annex");
+  EXPECT_EQ(after->maps(1).version().generation(), 2u);
+  auto reply = (*client)->Localise(test::kTestMapName, test::TourFeatures(3));
+  ASSERT_TRUE(reply.ok()) << reply.status().ToString();
+  EXPECT_EQ(reply->map().generation(), 2u);
+  EXPECT_NE(server.output().find("SIGHUP"), std::string::npos);
+
+  server.Signal(SIGTERM);
+  EXPECT_EQ(server.Wait(std::chrono::seconds(30)), 0) << server.output();
 }
 
 // A settings error stops the server at start with status 2 and a message naming it.

@@ -5,6 +5,8 @@
 #include <unistd.h>
 
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <mutex>
 
 #include "common/features/extractor.h"
@@ -109,6 +111,52 @@ TestServer StartTestServer(const ServerOptions& options) {
   t.server = std::move(server).value();
   t.endpoint = t.server->endpoint();
   return t;
+}
+
+TestServer StartTestServerOnDir(const ServerOptions& options) {
+  spdlog::set_level(spdlog::level::warn);
+  TestServer t;
+  MapRegistry::Options registry_options;
+  registry_options.self_test = options.matching;
+  t.registry = std::make_unique<MapRegistry>(registry_options);
+  std::vector<Status> failures;
+  EXPECT_TRUE(t.registry->LoadDirectory(options.maps_dir, &failures).ok());
+  EXPECT_TRUE(failures.empty()) << failures.front().ToString();
+  auto server = Server::Start(options, t.registry.get());
+  EXPECT_TRUE(server.ok()) << server.status().ToString();
+  if (!server.ok()) return t;
+  t.server = std::move(server).value();
+  t.endpoint = t.server->endpoint();
+  return t;
+}
+
+TempMapsDir::TempMapsDir(const std::string& tag) {
+  static int count = 0;
+  path_ = (fs::path(::testing::TempDir()) /
+           ("sceneloc_" + tag + "_" + std::to_string(::getpid()) + "_" + std::to_string(++count)))
+              .string();
+  fs::remove_all(path_);
+  fs::create_directories(path_);
+  fs::copy_file(TestMapPath(), MapPath());
+}
+
+TempMapsDir::~TempMapsDir() {
+  std::error_code ignored;
+  fs::remove_all(path_, ignored);
+}
+
+std::string TempMapsDir::MapPath(const std::string& map) const {
+  return (fs::path(path_) / (map + kMapFileExtension)).string();
+}
+
+void WriteInPlace(const std::string& path, const std::string& bytes) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+}
+
+std::string ReadFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
 }  // namespace sceneloc::test

@@ -42,5 +42,29 @@ struct TestServer {
 ServerOptions TestServerOptions();
 // Starts a server with `options` (gtest-fatal on failure: check with HasFatalFailure).
 TestServer StartTestServer(const ServerOptions& options);
+// Starts a server with `options` serving every map file in options.maps_dir.
+TestServer StartTestServerOnDir(const ServerOptions& options);
+
+// A fresh maps directory of its own (under the test temp dir) holding a copy of the test
+// map as <kTestMapName>.scnl; deleted with everything in it by the destructor.
+class TempMapsDir {
+ public:
+  explicit TempMapsDir(const std::string& tag);
+  ~TempMapsDir();
+  TempMapsDir(const TempMapsDir&) = delete;
+  TempMapsDir& operator=(const TempMapsDir&) = delete;
+  const std::string& path() const { return path_; }
+  // <path()>/<map>.scnl
+  std::string MapPath(const std::string& map = kTestMapName) const;
+
+ private:
+  std::string path_;
+};
+
+// Writes `bytes` over `path` in place (open, truncate, write, close: not atomic, as a
+// careless copy would), so a watcher sees one IN_CLOSE_WRITE.
+void WriteInPlace(const std::string& path, const std::string& bytes);
+// The whole content of `path` (empty when it cannot be read).
+std::string ReadFile(const std::string& path);
 
 }  // namespace sceneloc::test

@@ -1,0 +1,245 @@
+#include "server/map_loader.h"
+
+#include <poll.h>
+#include <spdlog/spdlog.h>
+#include <sys/eventfd.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <optional>
+#include <set>
+
+namespace sceneloc {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The names of the map files in `dir` now (empty when it cannot be listed).
+std::set<std::string> MapFilesIn(const std::string& dir) {
+  std::set<std::string> maps;
+  std::error_code ec;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string map = MapNameOfFile(it->path().filename().string());
+    if (!map.empty() && it->is_regular_file(ec)) maps.insert(map);
+  }
+  return maps;
+}
+
+void LogLoad(const std::string& why, const std::string& map, const MapLoader::LoadResult& result) {
+  if (result.ok()) {
+    const LoadedMap& m = **result;
+    spdlog::info("{}: map {} generation {} checksum {:08x} now serving ({} locations, {})", why,
+                 m.name, m.generation, m.checksum, m.map.num_images(), m.path);
+  } else {
+    spdlog::error("{}: map {} not reloaded, the version serving (if any) stays: {}", why, map,
+                  result.status().ToString());
+  }
+}
+
+}  // namespace
+
+StatusOr<std::unique_ptr<MapLoader>> MapLoader::Start(const Options& options,
+                                                      MapRegistry* registry) {
+  std::unique_ptr<DirWatcher> watcher;
+  if (options.watch) {
+    auto opened = DirWatcher::Open(options.maps_dir);
+    if (!opened.ok()) return opened.status();
+    watcher = std::move(opened).value();
+  }
+  const int wake_fd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+  if (wake_fd < 0) return IoError(std::string("map loader: eventfd: ") + std::strerror(errno));
+  std::unique_ptr<MapLoader> loader(new MapLoader(options, registry, wake_fd, std::move(watcher)));
+  loader->thread_ = std::thread([l = loader.get()] { l->Loop(); });
+  return loader;
+}
+
+MapLoader::MapLoader(const Options& options, MapRegistry* registry, int wake_fd,
+                     std::unique_ptr<DirWatcher> watcher)
+    : options_(options), registry_(registry), wake_fd_(wake_fd), watcher_(std::move(watcher)) {}
+
+MapLoader::~MapLoader() {
+  Stop();
+  ::close(wake_fd_);
+}
+
+void MapLoader::Wake() {
+  const uint64_t one = 1;
+  // Fails only when the counter is saturated, which already means "wake up".
+  (void)!::write(wake_fd_, &one, sizeof(one));
+}
+
+bool MapLoader::Reload(const std::string& map, Done done) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (stopping_) return false;
+    tasks_.push_back({map, std::move(done)});
+  }
+  Wake();
+  return true;
+}
+
+void MapLoader::ReloadAll() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (stopping_) return;
+    tasks_.push_back({"", nullptr});
+  }
+  Wake();
+}
+
+bool MapLoader::WaitIdle(std::chrono::milliseconds timeout) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  const uint64_t wanted = ++idle_wanted_;
+  Wake();
+  return idle_cv_.wait_for(lock, timeout, [&] { return idle_seen_ >= wanted || stopping_; }) &&
+         idle_seen_ >= wanted;
+}
+
+void MapLoader::Stop() {
+  std::lock_guard<std::mutex> stop_lock(stop_mutex_);
+  if (!thread_.joinable()) return;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stopping_ = true;
+  }
+  Wake();
+  thread_.join();
+  idle_cv_.notify_all();
+}
+
+std::string MapLoader::PathOf(const std::string& map) const {
+  return (fs::path(options_.maps_dir) / (map + kMapFileExtension)).string();
+}
+
+// --- loader thread ---
+
+void MapLoader::Loop() {
+  for (;;) {
+    pollfd fds[2] = {{wake_fd_, POLLIN, 0}, {watcher_ ? watcher_->fd() : -1, POLLIN, 0}};
+    if (::poll(fds, 2, PollTimeoutMs()) < 0 && errno != EINTR) {
+      spdlog::error("map loader: poll: {}", std::strerror(errno));
+    }
+    uint64_t ignored;
+    (void)!::read(wake_fd_, &ignored, sizeof(ignored));
+
+    uint64_t idle_wanted;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (stopping_) break;
+      idle_wanted = idle_wanted_;  // taken before the events are read: they count
+    }
+    ReadWatchEvents();
+    // One task at a time, so Stop() waits for one load at most.
+    while (std::optional<Task> task = NextTask()) RunTask(*task);
+    RunDueFileChanges();
+
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (due_.empty() && tasks_.empty() && idle_seen_ < idle_wanted) {
+      idle_seen_ = idle_wanted;
+      idle_cv_.notify_all();
+    }
+  }
+  std::deque<Task> cancelled;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    cancelled.swap(tasks_);
+  }
+  for (Task& task : cancelled) {
+    if (task.done) task.done(nullptr);
+  }
+}
+
+int MapLoader::PollTimeoutMs() const {
+  if (due_.empty()) return -1;
+  Clock::time_point next = Clock::time_point::max();
+  for (const auto& entry : due_) next = std::min(next, entry.second);
+  const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(next - Clock::now());
+  // Rounded up, so the wake-up is never early.
+  return static_cast<int>(std::max<int64_t>(0, ms.count() + 1));
+}
+
+void MapLoader::ReadWatchEvents() {
+  if (!watcher_) return;
+  bool overflowed = false, lost = false;
+  const Clock::time_point due = Clock::now() + options_.debounce;
+  for (const MapFileEvent& event : watcher_->ReadEvents(&overflowed, &lost)) {
+    spdlog::debug("maps directory: {}{} {}", event.map, kMapFileExtension,
+                  event.removed ? "removed" : "written");
+    due_[event.map] = due;
+  }
+  if (overflowed) {
+    // Events were lost: look at every file there is and every map served.
+    spdlog::warn("maps directory {}: inotify queue overflowed; rescanning it", options_.maps_dir);
+    for (const std::string& map : MapFilesIn(options_.maps_dir)) due_[map] = due;
+    for (const auto& loaded : registry_->List()) due_[loaded->name] = due;
+  }
+  if (lost) {
+    spdlog::error(
+        "maps directory {} was deleted or moved: no longer watching it (SIGHUP or "
+        "ReloadMap still reload)",
+        options_.maps_dir);
+    watcher_.reset();
+  }
+}
+
+std::optional<MapLoader::Task> MapLoader::NextTask() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (stopping_ || tasks_.empty()) return std::nullopt;
+  Task task = std::move(tasks_.front());
+  tasks_.pop_front();
+  return task;
+}
+
+bool MapLoader::Stopping() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return stopping_;
+}
+
+void MapLoader::RunDueFileChanges() {
+  const Clock::time_point now = Clock::now();
+  for (auto it = due_.begin(); it != due_.end() && !Stopping();) {
+    if (it->second > now) {
+      ++it;
+      continue;
+    }
+    const std::string map = it->first;
+    it = due_.erase(it);
+    SyncFile(map);
+  }
+}
+
+// Makes the map `map` follow its file: loaded when there is one, unloaded when not.
+void MapLoader::SyncFile(const std::string& map) {
+  const std::string path = PathOf(map);
+  std::error_code ec;
+  if (fs::is_regular_file(path, ec)) {
+    LogLoad("file changed", map, registry_->Load(path));
+    return;
+  }
+  if (registry_->Remove(map)) {
+    spdlog::info("file removed: map {} unloaded (requests holding it finish on it)", map);
+  }
+}
+
+void MapLoader::SyncFolder() {
+  spdlog::info("reloading every map in {}", options_.maps_dir);
+  const std::set<std::string> files = MapFilesIn(options_.maps_dir);
+  for (const std::string& map : files) {
+    if (Stopping()) return;
+    LogLoad("reload all", map, registry_->Load(PathOf(map)));
+  }
+  for (const auto& loaded : registry_->List()) {
+    if (files.count(loaded->name) == 0) SyncFile(loaded->name);
+  }
+}
+
+void MapLoader::RunTask(Task& task) {
+  if (task.map.empty()) return SyncFolder();
+  LoadResult result = registry_->Load(PathOf(task.map));
+  LogLoad("ReloadMap", task.map, result);
+  if (task.done) task.done(&result);
+}
+
+}  // namespace sceneloc

@@ -1,0 +1,123 @@
+// The server's one map-loading thread: every load and unload after start-up runs here,
+// never on a request worker or the I/O thread, so a slow load (reading, checksumming and
+// self-testing a large map) occupies no thread that answers requests.
+//
+// Work arrives three ways, all handled in order on the loader thread:
+//  - Reload(name, done): an admin ReloadMap request; `done` gets the result (the new
+//    snapshot, or why the old one keeps serving) and sends the reply;
+//  - ReloadAll(): SIGHUP; reloads every map file in the folder and unloads the maps
+//    whose file is gone;
+//  - the watched folder (DirWatcher, when Options::watch): a map file written or renamed
+//    into place is loaded; a deleted or renamed-away one is unloaded. Events for one name
+//    are coalesced until it has been quiet for Options::debounce, and what is on disk
+//    then decides: a file there is loaded, no file unloads the map.
+//
+// Every load goes through MapRegistry::Load (LoadMap + self-test, then an atomic swap), so
+// a bad, truncated or half-written file changes nothing: the old map keeps serving, and
+// the failure is logged (error), counted (MapRegistry::load_failures) and, for an admin
+// request, returned. An unloaded map's snapshot lives until the requests holding it finish.
+//
+// Thread-safe: every public method may be called from any thread. `done` callbacks run on
+// the loader thread, one at a time.
+#pragma once
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+
+#include "common/util/status.h"
+#include "server/dir_watcher.h"
+#include "server/map_registry.h"
+
+namespace sceneloc {
+
+class MapLoader {
+ public:
+  struct Options {
+    // Folder holding the map files (<name>.scnl).
+    std::string maps_dir;
+    // Watch maps_dir with inotify and follow its changes.
+    bool watch = true;
+    // A name's file events are acted on once none has come for this long.
+    std::chrono::milliseconds debounce{100};
+  };
+  using LoadResult = StatusOr<std::shared_ptr<const LoadedMap>>;
+  // Gets the load's result, or null when the loader stopped before starting it.
+  using Done = std::function<void(const LoadResult* result)>;
+
+  // Starts the loader thread (and the watch) for the maps of `registry`, which must
+  // outlive the loader. Errors: IoError when the folder cannot be watched.
+  static StatusOr<std::unique_ptr<MapLoader>> Start(const Options& options, MapRegistry* registry);
+  ~MapLoader();  // Stop()s first
+  MapLoader(const MapLoader&) = delete;
+  MapLoader& operator=(const MapLoader&) = delete;
+
+  // Queues a load of <maps_dir>/<map>.scnl; `done` runs on the loader thread with the new
+  // snapshot or the error (or null if Stop() comes first). False, and `done` is dropped
+  // uncalled, once Stop() has begun.
+  // REQUIRES: `map` is a plain file stem (no '/', not starting with '.').
+  bool Reload(const std::string& map, Done done);
+
+  // Queues a reload of every map file in the folder (SIGHUP); maps served without a file
+  // there any more are unloaded.
+  void ReloadAll();
+
+  // Waits until everything queued, and every folder event the kernel had queued, before
+  // the call has been acted on (debounce included). False at the timeout.
+  bool WaitIdle(std::chrono::milliseconds timeout);
+
+  // Finishes the load in progress, answers the queued Reload()s with null, and
+  // joins the thread. Idempotent.
+  void Stop();
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  struct Task {
+    std::string map;  // empty: reload the whole folder
+    Done done;
+  };
+
+  MapLoader(const Options& options, MapRegistry* registry, int wake_fd,
+            std::unique_ptr<DirWatcher> watcher);
+  void Wake();
+  void Loop();
+  std::optional<Task> NextTask();  // null when none is queued or when stopping
+  bool Stopping() const;
+  int PollTimeoutMs() const;
+  void ReadWatchEvents();
+  void RunDueFileChanges();
+  void SyncFile(const std::string& map);
+  void SyncFolder();
+  void RunTask(Task& task);
+  std::string PathOf(const std::string& map) const;
+
+  // Constant after construction.
+  const Options options_;
+  MapRegistry* const registry_;
+  const int wake_fd_;  // eventfd: Reload/ReloadAll/WaitIdle/Stop wake the loop
+
+  // Loader thread only.
+  std::unique_ptr<DirWatcher> watcher_;           // null when not watching (or the watch was lost)
+  std::map<std::string, Clock::time_point> due_;  // map -> when to act on its file events
+
+  mutable std::mutex mutex_;
+  std::condition_variable idle_cv_;
+  // Guarded by mutex_.
+  std::deque<Task> tasks_;
+  bool stopping_ = false;
+  uint64_t idle_wanted_ = 0;  // WaitIdle calls so far
+  uint64_t idle_seen_ = 0;    // WaitIdle calls whose events and tasks are all handled
+
+  std::mutex stop_mutex_;
+  std::thread thread_;  // guarded by stop_mutex_ after Start()
+};
+
+}  // namespace sceneloc
