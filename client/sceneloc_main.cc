@@ -4,6 +4,7 @@
 //   sceneloc extract IMAGE --out FILE [--config train.yaml] [--image-scale S] [--uint8]
 //   sceneloc maps --server EP          sceneloc reload --server EP --map NAME
 //   sceneloc stats --server EP
+//   sceneloc bench --server EP --map NAME --clients N --duration S [--features] [--json OUT] DIR
 // Exit status: 0 when every request was answered OK, 1 when any got an error reply or
 // none at all, 2 for bad arguments or unreadable files.
 #include <CLI/CLI.hpp>
@@ -11,6 +12,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "client/bench_command.h"
 #include "client/client.h"
 #include "common/config/config.h"
 #include "common/features/extractor.h"
@@ -170,9 +172,32 @@ int main(int argc, char** argv) {
     sub->add_option("--timeout-ms", timeout_ms, "per attempt");
   }
   reload->add_option("--map", map, "map name")->required();
+
+  sceneloc::BenchArgs bench_args;
+  CLI::App* bench = app.add_subcommand("bench", "load generator: N clients for S seconds");
+  bench->add_option("--server", bench_args.endpoint, "server endpoint")->required();
+  bench->add_option("--map", bench_args.map, "map name")->required();
+  bench->add_option("--clients", bench_args.clients, "client threads, one connection each")
+      ->capture_default_str();
+  bench->add_option("--duration", bench_args.duration_s, "seconds to send requests for")
+      ->capture_default_str();
+  bench->add_flag("--features", bench_args.features,
+                  "extract feature sets once on the client and send those instead of JPEGs");
+  bench->add_option("--map-file", bench_args.map_file,
+                    "with --features: take the extractor settings from this map file");
+  bench->add_option("--config", bench_args.config,
+                    "with --features: training settings whose extractor: section to use");
+  bench->add_option("--image-scale", bench_args.image_scale,
+                    "with --features: override extractor.image_scale (0, 1]");
+  bench->add_option("--json", bench_args.json_out, "write the results as JSON to this file");
+  bench->add_option("--top-k", bench_args.top_k, "ranked locations wanted (0 = server default)");
+  bench->add_option("--timeout-ms", bench_args.timeout_ms, "per request; no retries")
+      ->capture_default_str();
+  bench->add_option("dir", bench_args.image_dir, "folder of query images")->required();
   CLI11_PARSE(app, argc, argv);
 
   if (extract->parsed()) return RunExtract(inputs[0], out, config, image_scale, uint8);
+  if (bench->parsed()) return sceneloc::RunBench(bench_args);
   auto client = Connect(server, timeout_ms);
   if (!client.ok()) {
     std::fprintf(stderr, "sceneloc: %s\n", client.status().message().c_str());

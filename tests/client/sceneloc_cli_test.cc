@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 
 #include "tests/server/server_test_support.h"
 
@@ -89,6 +90,78 @@ TEST_F(ScenelocCliTest, MapsListsGenerations) {
   const RunResult run = Sceneloc("maps --server " + server_.endpoint);
   EXPECT_EQ(run.status, 0) << run.output;
   EXPECT_NE(run.output.find("synthetic\tgeneration 1"), std::string::npos) << run.output;
+}
+
+// bench runs 2 clients for about a second against the real server and writes the JSON a
+// user relies on: requests answered, no errors, latency percentiles, the map generation.
+TEST_F(ScenelocCliTest, BenchWritesJsonSummary) {
+  const fs::path queries = dir_ / "queries";
+  fs::create_directories(queries);
+  for (size_t i = 0; i < test::TourJpegs().size(); ++i) {
+    std::ofstream(queries / ("Image" + std::to_string(100 + i) + ".jpg"), std::ios::binary)
+        << test::TourJpegs()[i];
+  }
+  const std::string json_path = (dir_ / "bench.json").string();
+  const RunResult run = Sceneloc("bench --server " + server_.endpoint +
+                                 " --map synthetic --clients 2 --duration 1 --json " + json_path +
+                                 " " + queries.string());
+  EXPECT_EQ(run.status, 0) << run.output;
+  EXPECT_NE(run.output.find("throughput"), std::string::npos) << run.output;
+  std::ifstream in(json_path);
+  ASSERT_TRUE(in) << run.output;
+  const nlohmann::json json = nlohmann::json::parse(in);
+  EXPECT_GT(json["requests"].get<int64_t>(), 0);
+  EXPECT_EQ(json["ok"], json["requests"]);
+  EXPECT_GT(json["throughput_rps"].get<double>(), 0);
+  EXPECT_TRUE(json["errors"].empty()) << json.dump();
+  const nlohmann::json& latency = json["latency_ms"];
+  EXPECT_GT(latency["p50"].get<double>(), 0);
+  EXPECT_LE(latency["p50"].get<double>(), latency["p90"].get<double>());
+  EXPECT_LE(latency["p90"].get<double>(), latency["p99"].get<double>());
+  EXPECT_EQ(json["map_versions"], nlohmann::json::array({1})) << json.dump();
+  EXPECT_EQ(json["mode"], "jpeg");
+  // Bounded: it stops by itself shortly after the duration.
+  EXPECT_LT(json["elapsed_s"].get<double>(), 5.0);
+}
+
+// bench --features extracts on the client (the map's settings: image_scale 1) and sends
+// feature sets, which the server answers without errors.
+TEST_F(ScenelocCliTest, BenchSendsFeatureSets) {
+  const std::string json_path = (dir_ / "bench.json").string();
+  const fs::path queries = dir_ / "queries";
+  fs::create_directories(queries);
+  fs::copy_file(Image(4), queries / "q4.jpg");
+  const RunResult run =
+      Sceneloc("bench --server " + server_.endpoint +
+               " --map synthetic --clients 2 --duration 0.5 --features "
+               "--map-file " +
+               test::TestMapPath() + " --json " + json_path + " " + queries.string());
+  EXPECT_EQ(run.status, 0) << run.output;
+  std::ifstream in(json_path);
+  ASSERT_TRUE(in) << run.output;
+  const nlohmann::json json = nlohmann::json::parse(in);
+  EXPECT_GT(json["requests"].get<int64_t>(), 0);
+  EXPECT_TRUE(json["errors"].empty()) << json.dump();
+  EXPECT_EQ(json["mode"], "features");
+}
+
+// An unknown map: every request fails, bench counts them by status name and exits 1.
+TEST_F(ScenelocCliTest, BenchCountsErrorsByKind) {
+  const std::string json_path = (dir_ / "bench.json").string();
+  const fs::path queries = dir_ / "queries";
+  fs::create_directories(queries);
+  fs::copy_file(Image(0), queries / "q0.jpg");
+  const RunResult run = Sceneloc("bench --server " + server_.endpoint +
+                                 " --map nowhere --clients 1 --duration 0.3 --json " + json_path +
+                                 " " + queries.string());
+  EXPECT_EQ(run.status, 1) << run.output;
+  std::ifstream in(json_path);
+  ASSERT_TRUE(in) << run.output;
+  const nlohmann::json json = nlohmann::json::parse(in);
+  EXPECT_GT(json["requests"].get<int64_t>(), 0);
+  EXPECT_EQ(json["errors"]["NOT_FOUND"], json["requests"]) << json.dump();
+  EXPECT_EQ(json["ok"], 0);
+  EXPECT_TRUE(json["map_versions"].empty());
 }
 
 }  // namespace

@@ -1,0 +1,155 @@
+#include "client/bench_command.h"
+
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "client/load_generator.h"
+#include "common/config/config.h"
+#include "common/features/extractor.h"
+#include "common/map/map_io.h"
+#include "common/util/image_folder.h"
+#include "common/util/timer.h"
+
+namespace sceneloc {
+namespace {
+
+StatusOr<std::string> ReadBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return NotFound("cannot read '" + path + "'");
+  std::ostringstream bytes;
+  bytes << in.rdbuf();
+  return bytes.str();
+}
+
+// The extractor settings --features uses (see BenchArgs).
+StatusOr<ExtractorOptions> ExtractorSettings(const BenchArgs& args) {
+  TrainOptions options;
+  if (!args.map_file.empty()) {
+    SCENELOC_ASSIGN_OR_RETURN(const Map map, LoadMap(args.map_file));
+    return map.options.extractor;
+  }
+  if (!args.config.empty()) SCENELOC_RETURN_IF_ERROR(LoadTrainOptions(args.config, &options));
+  if (args.image_scale > 0) options.extractor.image_scale = args.image_scale;
+  SCENELOC_RETURN_IF_ERROR(options.extractor.Validate());
+  return options.extractor;
+}
+
+// Every image of the folder as a ready request: read (and extracted) once, here.
+StatusOr<std::vector<LoadQuery>> PrepareQueries(const BenchArgs& args) {
+  SCENELOC_ASSIGN_OR_RETURN(const std::vector<std::string> paths, ListImageFiles(args.image_dir));
+  std::unique_ptr<FeatureExtractor> extractor;
+  if (args.features) {
+    SCENELOC_ASSIGN_OR_RETURN(const ExtractorOptions settings, ExtractorSettings(args));
+    extractor = FeatureExtractor::Create(settings);
+  }
+  std::vector<LoadQuery> queries;
+  for (const std::string& path : paths) {
+    SCENELOC_ASSIGN_OR_RETURN(std::string bytes, ReadBytes(path));
+    if (!extractor) {
+      queries.push_back(JpegQuery(FileName(path), std::move(bytes)));
+      continue;
+    }
+    SCENELOC_ASSIGN_OR_RETURN(const cv::Mat image,
+                              DecodeImage(bytes, extractor->options().max_image_side));
+    SCENELOC_ASSIGN_OR_RETURN(const FeatureSet features, extractor->Extract(image));
+    queries.push_back(FeatureQuery(FileName(path), features));
+  }
+  return queries;
+}
+
+nlohmann::json Percentiles(const std::vector<double>& values) {
+  return {{"p50", Quantile(values, 0.50)},
+          {"p90", Quantile(values, 0.90)},
+          {"p99", Quantile(values, 0.99)},
+          {"max", Quantile(values, 1.0)}};
+}
+
+nlohmann::json ToJson(const BenchArgs& args, const LoadResult& r) {
+  nlohmann::json versions = nlohmann::json::array(), checksums = nlohmann::json::object();
+  for (const auto& [generation, checksum] : r.map_versions) {
+    versions.push_back(generation);
+    char hex[9];
+    std::snprintf(hex, sizeof(hex), "%08x", checksum);
+    checksums[std::to_string(generation)] = hex;
+  }
+  return {{"requests", r.requests},
+          {"ok", r.ok},
+          {"throughput_rps", r.ThroughputRps()},
+          {"elapsed_s", r.elapsed_s},
+          {"clients", args.clients},
+          {"duration_s", args.duration_s},
+          {"mode", args.features ? "features" : "jpeg"},
+          {"map", args.map},
+          {"latency_ms", Percentiles(r.latency_ms)},
+          {"server_ms", Percentiles(r.server_ms)},
+          {"errors", r.errors},
+          {"map_versions", versions},
+          {"map_checksums", checksums}};
+}
+
+void PrintSummary(const BenchArgs& args, const LoadResult& r) {
+  std::printf("bench: %s, %d client(s), %.1f s, %s requests to map %s\n", args.endpoint.c_str(),
+              args.clients, r.elapsed_s, args.features ? "feature-set" : "JPEG", args.map.c_str());
+  std::printf("requests    %lld (%lld ok)\n", static_cast<long long>(r.requests),
+              static_cast<long long>(r.ok));
+  std::printf("throughput  %.2f req/s\n", r.ThroughputRps());
+  std::printf("latency ms  p50 %.2f  p90 %.2f  p99 %.2f  max %.2f  (client, successful requests)\n",
+              Quantile(r.latency_ms, 0.5), Quantile(r.latency_ms, 0.9),
+              Quantile(r.latency_ms, 0.99), Quantile(r.latency_ms, 1.0));
+  std::printf("server ms   p50 %.2f  p90 %.2f  p99 %.2f\n", Quantile(r.server_ms, 0.5),
+              Quantile(r.server_ms, 0.9), Quantile(r.server_ms, 0.99));
+  std::printf("errors     ");
+  if (r.errors.empty()) std::printf(" none");
+  for (const auto& [kind, n] : r.errors)
+    std::printf(" %s %lld", kind.c_str(), static_cast<long long>(n));
+  std::printf("\nmap versions");
+  for (const auto& [generation, checksum] : r.map_versions) {
+    std::printf(" %s@%llu (%08x)", args.map.c_str(), static_cast<unsigned long long>(generation),
+                checksum);
+  }
+  std::printf("\n");
+}
+
+}  // namespace
+
+int RunBench(const BenchArgs& args) {
+  LoadOptions options;
+  options.endpoint = args.endpoint;
+  options.map = args.map;
+  options.clients = args.clients;
+  options.duration_s = args.duration_s;
+  options.timeout_ms = args.timeout_ms;
+  options.top_k = args.top_k;
+  if (const Status valid = options.Validate(); !valid.ok()) {
+    std::fprintf(stderr, "sceneloc bench: %s\n", valid.message().c_str());
+    return 2;
+  }
+  const Stopwatch preparing;
+  auto queries = PrepareQueries(args);
+  if (!queries.ok()) {
+    std::fprintf(stderr, "sceneloc bench: %s\n", queries.status().message().c_str());
+    return 2;
+  }
+  std::printf("bench: %zu queries prepared in %.1f s (%s); sending for %g s\n", queries->size(),
+              preparing.Seconds(), args.features ? "read and extracted" : "read", args.duration_s);
+  std::fflush(stdout);
+  auto result = RunLoad(options, *queries);
+  if (!result.ok()) {
+    std::fprintf(stderr, "sceneloc bench: %s\n", result.status().message().c_str());
+    return 2;
+  }
+  PrintSummary(args, *result);
+  if (!args.json_out.empty()) {
+    std::ofstream out(args.json_out);
+    out << ToJson(args, *result).dump(2) << "\n";
+    if (!out) {
+      std::fprintf(stderr, "sceneloc bench: cannot write '%s'\n", args.json_out.c_str());
+      return 2;
+    }
+  }
+  return result->errors.empty() && result->requests > 0 ? 0 : 1;
+}
+
+}  // namespace sceneloc

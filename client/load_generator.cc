@@ -1,0 +1,147 @@
+#include "client/load_generator.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <thread>
+
+#include "client/client.h"
+#include "proto/wire.h"
+
+namespace sceneloc {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// What one client thread saw; merged into the LoadResult after every thread has joined,
+// so the threads share nothing while they run.
+struct ClientTally {
+  LoadResult result;
+  Clock::time_point finished;
+};
+
+// Counts one completed call into `tally`.
+void Record(const StatusOr<v1::Reply>& reply, double ms, ClientTally* tally) {
+  LoadResult& r = tally->result;
+  ++r.requests;
+  if (!reply.ok()) {
+    ++r.errors[reply.status().code() == StatusCode::kIoError ? "NO_REPLY" : "BAD_REPLY"];
+    return;
+  }
+  if (reply->status() != v1::OK) {
+    ++r.errors[v1::StatusCode_Name(reply->status())];
+    return;
+  }
+  if (!reply->has_localise()) {
+    ++r.errors["BAD_REPLY"];
+    return;
+  }
+  ++r.ok;
+  r.latency_ms.push_back(ms);
+  r.server_ms.push_back(reply->localise().timings().total_ms());
+  const v1::MapVersion& version = reply->localise().map();
+  r.map_versions[version.generation()] = version.checksum();
+}
+
+// One client: requests back to back, starting at `first`, until `deadline`.
+void RunClient(Client* client, const std::vector<v1::Request>& requests, size_t first,
+               Clock::time_point deadline, ClientTally* tally) {
+  for (size_t i = first; Clock::now() < deadline; i = (i + 1) % requests.size()) {
+    v1::Request request = requests[i];  // Call takes it by value; copy before the clock
+    const auto start = Clock::now();
+    const StatusOr<v1::Reply> reply = client->Call(std::move(request));
+    const double ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+    Record(reply, ms, tally);
+  }
+  tally->finished = Clock::now();
+}
+
+void Merge(const LoadResult& from, LoadResult* into) {
+  into->requests += from.requests;
+  into->ok += from.ok;
+  into->latency_ms.insert(into->latency_ms.end(), from.latency_ms.begin(), from.latency_ms.end());
+  into->server_ms.insert(into->server_ms.end(), from.server_ms.begin(), from.server_ms.end());
+  for (const auto& [kind, n] : from.errors) into->errors[kind] += n;
+  for (const auto& [generation, checksum] : from.map_versions) {
+    into->map_versions[generation] = checksum;
+  }
+}
+
+}  // namespace
+
+Status LoadOptions::Validate() const {
+  if (endpoint.empty()) return InvalidArgument("no server endpoint");
+  if (map.empty()) return InvalidArgument("no map name");
+  if (clients < 1) return InvalidArgument("clients must be >= 1");
+  if (!(duration_s > 0) || !std::isfinite(duration_s)) {
+    return InvalidArgument("duration must be > 0 seconds");
+  }
+  if (timeout_ms < 1) return InvalidArgument("timeout_ms must be >= 1");
+  if (top_k < 0) return InvalidArgument("top_k must be >= 0");
+  return Status::Ok();
+}
+
+LoadQuery JpegQuery(std::string name, std::string jpeg) {
+  LoadQuery query{std::move(name), {}};
+  query.request.mutable_localise()->set_jpeg(std::move(jpeg));
+  return query;
+}
+
+LoadQuery FeatureQuery(std::string name, const FeatureSet& features) {
+  LoadQuery query{std::move(name), {}};
+  EncodeFeatureSet(features, DescriptorEncoding::kFloat32,
+                   query.request.mutable_localise()->mutable_features());
+  return query;
+}
+
+StatusOr<LoadResult> RunLoad(const LoadOptions& options, const std::vector<LoadQuery>& queries) {
+  SCENELOC_RETURN_IF_ERROR(options.Validate());
+  if (queries.empty()) return InvalidArgument("no queries to send");
+  std::vector<v1::Request> requests;
+  for (const LoadQuery& query : queries) {
+    requests.push_back(query.request);
+    requests.back().mutable_localise()->set_map(options.map);
+    requests.back().mutable_localise()->set_top_k(options.top_k);
+  }
+  ClientOptions client_options;
+  client_options.timeout_ms = options.timeout_ms;
+  client_options.retries = 0;
+  // Made here, used on the client threads: a ZeroMQ socket may move to another thread
+  // across a full memory barrier, which starting the thread is.
+  std::vector<std::unique_ptr<Client>> clients;
+  for (int c = 0; c < options.clients; ++c) {
+    SCENELOC_ASSIGN_OR_RETURN(auto client, Client::Connect(options.endpoint, client_options));
+    clients.push_back(std::move(client));
+  }
+
+  std::vector<ClientTally> tallies(clients.size());
+  const auto start = Clock::now();
+  const auto deadline = start + std::chrono::duration_cast<Clock::duration>(
+                                    std::chrono::duration<double>(options.duration_s));
+  std::vector<std::thread> threads;
+  for (size_t c = 0; c < clients.size(); ++c) {
+    const size_t first = c * requests.size() / clients.size();
+    threads.emplace_back(RunClient, clients[c].get(), std::cref(requests), first, deadline,
+                         &tallies[c]);
+  }
+  LoadResult result;
+  Clock::time_point finished = start;
+  for (size_t c = 0; c < threads.size(); ++c) {
+    threads[c].join();
+    Merge(tallies[c].result, &result);
+    finished = std::max(finished, tallies[c].finished);
+  }
+  result.elapsed_s = std::chrono::duration<double>(finished - start).count();
+  return result;
+}
+
+double Quantile(std::vector<double> values, double q) {
+  if (values.empty()) return 0;
+  const double rank = std::ceil(std::clamp(q, 0.0, 1.0) * static_cast<double>(values.size()));
+  const size_t k = std::max<size_t>(1, static_cast<size_t>(rank)) - 1;
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
+  return values[k];
+}
+
+}  // namespace sceneloc

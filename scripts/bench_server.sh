@@ -1,0 +1,97 @@
+#!/usr/bin/env bash
+# Issue 3's server targets on Gardens Point: latency of one client (JPEG and feature-set
+# requests), 8-client throughput against a --threads 1 server, the map replaced under
+# 8-client load, and resident memory with one and two maps. Prints every figure and keeps
+# the sceneloc bench JSON files in OUT_DIR. About 3 minutes on 2 cores.
+# Usage: scripts/bench_server.sh [OUT_DIR] [DATA_DIR] [SECONDS_PER_RUN]
+set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+out="$(mkdir -p "${1:-$root/bench-out}" && cd "${1:-$root/bench-out}" && pwd)"
+data="${2:-$root/../shared/data/gardens_point}"
+seconds="${3:-15}"
+[[ -d "$data/day_left" && -d "$data/day_right" ]] || {
+  echo "bench_server: $data/day_left and day_right are needed" >&2; exit 1; }
+build="$root/build"
+client="$build/client/sceneloc"
+
+server_pid=""
+stop_server() {
+  if [[ -n "$server_pid" ]] && kill -0 "$server_pid" 2>/dev/null; then
+    kill -TERM "$server_pid"; wait "$server_pid" || true
+  fi
+  server_pid=""
+}
+trap stop_server EXIT
+
+# start_server THREADS: starts sceneloc-server on a free port; sets $endpoint.
+start_server() {
+  local log="$out/server-$1.log"
+  "$build/server/sceneloc-server" --config "$root/configs/server.yaml" --maps "$out/maps" \
+    --endpoint 'tcp://127.0.0.1:*' --threads "$1" --log-level warn >"$log" 2>&1 &
+  server_pid=$!
+  endpoint=""
+  local deadline=$((SECONDS + 30))
+  until [[ -n "$endpoint" ]] && "$client" maps --server "$endpoint" --timeout-ms 500 >/dev/null 2>&1; do
+    ((SECONDS < deadline)) || { cat "$log" >&2; echo "bench_server: server did not start" >&2; exit 1; }
+    endpoint="$(grep -o 'on tcp://127\.0\.0\.1:[0-9]*' "$log" | head -n1 | cut -c4- || true)"
+    sleep 0.2
+  done
+}
+
+# bench NAME CLIENTS [EXTRA...]: one sceneloc bench run over the day_right images.
+bench() {
+  local name=$1 clients=$2; shift 2
+  "$client" bench --server "$endpoint" --map gp --clients "$clients" --duration "$seconds" \
+    --json "$out/$name.json" "$@" "$data/day_right" | sed "s/^/[$name] /"
+}
+
+rss_mb() { awk '/VmRSS/ {printf "%.1f", $2 / 1024}' "/proc/$server_pid/status"; }
+
+bash "$root/scripts/build.sh" >/dev/null
+mkdir -p "$out/maps"
+if [[ ! -f "$out/maps/gp.scnl" ]]; then
+  "$build/tools/sceneloc-train" --tour "$data/day_left" --out "$out/maps/gp.scnl" \
+    --config "$root/configs/train.yaml" | tail -n 4
+fi
+rm -f "$out/maps/gp2.scnl"
+
+start_server 2
+echo "resident memory, 1 map: $(rss_mb) MB"
+bench one_client_jpeg 1
+bench one_client_features 1 --features
+bench eight_clients 8
+# The map replaced (a new generation) a third of the way into an 8-client run.
+(sleep "$((seconds / 3))"; cp "$out/maps/gp.scnl" "$out/maps/.gp.new" &&
+  mv "$out/maps/.gp.new" "$out/maps/gp.scnl") &
+bench eight_clients_reload 8
+wait
+cp "$out/maps/gp.scnl" "$out/maps/gp2.scnl"
+deadline=$((SECONDS + 30))
+until "$client" maps --server "$endpoint" | grep -q gp2; do
+  ((SECONDS < deadline)) || { echo "bench_server: second map never loaded" >&2; exit 1; }
+  sleep 0.2
+done
+echo "resident memory, 2 maps: $(rss_mb) MB"
+stop_server
+rm -f "$out/maps/gp2.scnl"
+
+start_server 1
+bench eight_clients_threads1 8
+stop_server
+
+/usr/bin/python3 - "$out" <<'PY'
+import json, sys
+out = sys.argv[1]
+r = {n: json.load(open(f"{out}/{n}.json")) for n in (
+    "one_client_jpeg", "one_client_features", "eight_clients", "eight_clients_reload",
+    "eight_clients_threads1")}
+for n, j in r.items():
+    lat = j["latency_ms"]
+    print(f"{n:24s} requests {j['requests']:6d}  {j['throughput_rps']:7.1f} req/s  "
+          f"p50 {lat['p50']:6.1f}  p90 {lat['p90']:6.1f}  p99 {lat['p99']:6.1f} ms  "
+          f"errors {j['errors']}  generations {j['map_versions']}")
+print(f"8 clients: --threads 2 / --threads 1 throughput = "
+      f"{r['eight_clients']['throughput_rps'] / r['eight_clients_threads1']['throughput_rps']:.2f}x")
+print(f"reload under load: p99 {r['eight_clients_reload']['latency_ms']['p99']:.1f} ms "
+      f"vs {r['eight_clients']['latency_ms']['p99']:.1f} ms without")
+PY
