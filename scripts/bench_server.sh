@@ -27,7 +27,7 @@ trap stop_server EXIT
 start_server() {
   local log="$out/server-$1.log"
   "$build/server/sceneloc-server" --config "$root/configs/server.yaml" --maps "$out/maps" \
-    --endpoint 'tcp://127.0.0.1:*' --threads "$1" --log-level warn >"$log" 2>&1 &
+    --endpoint 'tcp://127.0.0.1:*' --threads "$1" --log-level info >"$log" 2>&1 &
   server_pid=$!
   endpoint=""
   local deadline=$((SECONDS + 30))
@@ -57,14 +57,6 @@ rm -f "$out/maps/gp2.scnl"
 
 start_server 2
 echo "resident memory, 1 map: $(rss_mb) MB"
-bench one_client_jpeg 1
-bench one_client_features 1 --features
-bench eight_clients 8
-# The map replaced (a new generation) a third of the way into an 8-client run.
-(sleep "$((seconds / 3))"; cp "$out/maps/gp.scnl" "$out/maps/.gp.new" &&
-  mv "$out/maps/.gp.new" "$out/maps/gp.scnl") &
-bench eight_clients_reload 8
-wait
 cp "$out/maps/gp.scnl" "$out/maps/gp2.scnl"
 deadline=$((SECONDS + 30))
 until "$client" maps --server "$endpoint" | grep -q gp2; do
@@ -72,8 +64,17 @@ until "$client" maps --server "$endpoint" | grep -q gp2; do
   sleep 0.2
 done
 echo "resident memory, 2 maps: $(rss_mb) MB"
-stop_server
 rm -f "$out/maps/gp2.scnl"
+bench one_client_jpeg 1
+bench one_client_features 1 --features
+bench eight_clients 8
+# The map replaced (a new generation) a third of the way into an 8-client run.
+(sleep "$((seconds / 3))"; cp "$out/maps/gp.scnl" "$out/maps/.gp.new" &&
+  mv "$out/maps/.gp.new" "$out/maps/gp.scnl") &
+replacer=$!
+bench eight_clients_reload 8
+wait "$replacer"
+stop_server
 
 start_server 1
 bench eight_clients_threads1 8

@@ -37,15 +37,17 @@ FeatureSet SelfTestFeatures(const Map& map, int location) {
     Keypoint& k = f.keypoints[static_cast<size_t>(i)];
     k.x = map.mean_x[g];
     k.y = map.mean_y[g];
-    // Where g was seen in this very image, when the map says so.
+    k.size = 8.0f;
+    // Where and how large g was seen in this very image (G_l holds only landmarks seen in
+    // l), so verification's epipolar and scale checks see the location as it was.
     for (uint32_t o = map.observation_offsets[g]; o < map.observation_offsets[g + 1]; ++o) {
       if (map.observation_image[o] == static_cast<uint32_t>(location)) {
         k.x = map.observation_x[o];
         k.y = map.observation_y[o];
+        k.size = map.observation_size[o];
         break;
       }
     }
-    k.size = 8.0f;
     k.response = 1.0f;
     CopyUnitRow(map.local_mean, static_cast<int>(g), &f.local, i);
     CopyUnitRow(map.context_mean, static_cast<int>(g), &f.context, i);

@@ -11,6 +11,7 @@
 #include <CLI/CLI.hpp>
 #include <csignal>
 #include <map>
+#include <opencv2/core/utility.hpp>
 
 #include "server/map_registry.h"
 #include "server/server.h"
@@ -67,6 +68,9 @@ int main(int argc, char** argv) {
         flag.help + " [" + flag.section + "." + flag.key + "]");
   }
   CLI11_PARSE(app, argc, argv);
+  // The server spreads work over its own worker pool (server.threads); OpenCV's internal
+  // threads inside SIFT would oversubscribe the cores and make --threads meaningless.
+  cv::setNumThreads(1);
 
   sceneloc::ServerOptions options;
   const Status resolved = ResolveOptions(config_path, flag_values, &options);

@@ -126,5 +126,29 @@ TEST_F(MapRegistryTest, SelfTestFeaturesFindTheirLocation) {
   }
 }
 
+// The self-test query carries each landmark's observed position and keypoint size in its
+// location, so the engine's geometric and scale verification puts that location first
+// (with a fixed size the scale check pushed it down and real maps failed to load).
+TEST_F(MapRegistryTest, SelfTestFeaturesRankTheirLocationFirst) {
+  auto map = LoadMap(path_);
+  ASSERT_TRUE(map.ok());
+  for (int l = 0; l < map->num_images(); ++l) {
+    const FeatureSet f = SelfTestFeatures(*map, l);
+    for (size_t i = 0; i < f.keypoints.size(); ++i) {
+      const uint32_t g = map->image_landmarks[map->image_offsets[l] + i];
+      bool seen = false;
+      for (uint32_t o = map->observation_offsets[g]; o < map->observation_offsets[g + 1]; ++o) {
+        if (map->observation_image[o] != static_cast<uint32_t>(l)) continue;
+        EXPECT_EQ(f.keypoints[i].size, map->observation_size[o]);
+        seen = true;
+      }
+      EXPECT_TRUE(seen);
+    }
+    auto result = Localise(f, *map, MatchOptions(), nullptr);
+    ASSERT_TRUE(result.ok());
+    EXPECT_EQ(result->ranked[0].index, l);
+  }
+}
+
 }  // namespace
 }  // namespace sceneloc
