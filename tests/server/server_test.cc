@@ -287,6 +287,21 @@ TEST_F(ServerTest, HugeJpegIsRefusedFromItsHeader) {
       << reply.status().message();
 }
 
+// A DEALER socket connected to `endpoint` that has sent `count` copies of `request` back
+// to back, with request ids 1..count, without waiting for any reply.
+zmq::socket_t SendBurst(zmq::context_t* context, const std::string& endpoint, v1::Request request,
+                        int count) {
+  zmq::socket_t socket(*context, zmq::socket_type::dealer);
+  socket.set(zmq::sockopt::linger, 0);
+  socket.connect(endpoint);
+  for (int i = 1; i <= count; ++i) {
+    request.set_request_id(static_cast<uint64_t>(i));
+    socket.send(zmq::message_t(), zmq::send_flags::sndmore);
+    socket.send(zmq::buffer(request.SerializeAsString()), zmq::send_flags::none);
+  }
+  return socket;
+}
+
 // A server with one worker and a queue of one, flooded: every request gets exactly one
 // reply, some OVERLOADED, none dropped.
 TEST(ServerOverloadTest, FullQueueRepliesOverloadedNeverDrops) {
@@ -297,16 +312,9 @@ TEST(ServerOverloadTest, FullQueueRepliesOverloadedNeverDrops) {
   ASSERT_NE(server.server, nullptr);
 
   zmq::context_t context;
-  zmq::socket_t socket(context, zmq::socket_type::dealer);
-  socket.set(zmq::sockopt::linger, 0);
-  socket.connect(server.endpoint);
   constexpr int kRequests = 24;
-  v1::Request request = LocaliseFeatures(test::TourFeatures(4));
-  for (int i = 1; i <= kRequests; ++i) {
-    request.set_request_id(static_cast<uint64_t>(i));
-    socket.send(zmq::message_t(), zmq::send_flags::sndmore);
-    socket.send(zmq::buffer(request.SerializeAsString()), zmq::send_flags::none);
-  }
+  zmq::socket_t socket =
+      SendBurst(&context, server.endpoint, LocaliseFeatures(test::TourFeatures(4)), kRequests);
   std::set<uint64_t> ids;
   int ok = 0, overloaded = 0;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
@@ -341,16 +349,9 @@ TEST(ServerShutdownTest, InFlightRequestsAreAnsweredOnShutdown) {
   test::TestServer server = test::StartTestServer(options);
   ASSERT_NE(server.server, nullptr);
   zmq::context_t context;
-  zmq::socket_t socket(context, zmq::socket_type::dealer);
-  socket.set(zmq::sockopt::linger, 0);
-  socket.connect(server.endpoint);
   constexpr int kRequests = 6;
-  v1::Request request = LocaliseFeatures(test::TourFeatures(6));
-  for (int i = 1; i <= kRequests; ++i) {
-    request.set_request_id(static_cast<uint64_t>(i));
-    socket.send(zmq::message_t(), zmq::send_flags::sndmore);
-    socket.send(zmq::buffer(request.SerializeAsString()), zmq::send_flags::none);
-  }
+  zmq::socket_t socket =
+      SendBurst(&context, server.endpoint, LocaliseFeatures(test::TourFeatures(6)), kRequests);
   // Wait until the server has taken them all in (Stats counts requests), then stop it.
   auto client = MustConnect(server.endpoint);
   for (const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);;) {

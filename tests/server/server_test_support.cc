@@ -97,14 +97,18 @@ ServerOptions TestServerOptions() {
   return options;
 }
 
-TestServer StartTestServer(const ServerOptions& options) {
+namespace {
+
+// A registry made with the server's own self-test settings, filled by `load`, then a server
+// started on it. Failures are test failures; t.server stays null when the start failed.
+template <typename LoadFn>
+TestServer StartWithRegistry(const ServerOptions& options, LoadFn load) {
   spdlog::set_level(spdlog::level::warn);
   TestServer t;
   MapRegistry::Options registry_options;
   registry_options.self_test = options.matching;
   t.registry = std::make_unique<MapRegistry>(registry_options);
-  auto loaded = t.registry->Load(TestMapPath());
-  EXPECT_TRUE(loaded.ok()) << loaded.status().ToString();
+  load(t.registry.get());
   auto server = Server::Start(options, t.registry.get());
   EXPECT_TRUE(server.ok()) << server.status().ToString();
   if (!server.ok()) return t;
@@ -113,21 +117,21 @@ TestServer StartTestServer(const ServerOptions& options) {
   return t;
 }
 
+}  // namespace
+
+TestServer StartTestServer(const ServerOptions& options) {
+  return StartWithRegistry(options, [](MapRegistry* registry) {
+    auto loaded = registry->Load(TestMapPath());
+    EXPECT_TRUE(loaded.ok()) << loaded.status().ToString();
+  });
+}
+
 TestServer StartTestServerOnDir(const ServerOptions& options) {
-  spdlog::set_level(spdlog::level::warn);
-  TestServer t;
-  MapRegistry::Options registry_options;
-  registry_options.self_test = options.matching;
-  t.registry = std::make_unique<MapRegistry>(registry_options);
-  std::vector<Status> failures;
-  EXPECT_TRUE(t.registry->LoadDirectory(options.maps_dir, &failures).ok());
-  EXPECT_TRUE(failures.empty()) << failures.front().ToString();
-  auto server = Server::Start(options, t.registry.get());
-  EXPECT_TRUE(server.ok()) << server.status().ToString();
-  if (!server.ok()) return t;
-  t.server = std::move(server).value();
-  t.endpoint = t.server->endpoint();
-  return t;
+  return StartWithRegistry(options, [&](MapRegistry* registry) {
+    std::vector<Status> failures;
+    EXPECT_TRUE(registry->LoadDirectory(options.maps_dir, &failures).ok());
+    EXPECT_TRUE(failures.empty()) << failures.front().ToString();
+  });
 }
 
 TempMapsDir::TempMapsDir(const std::string& tag) {
