@@ -70,12 +70,17 @@ TEST(ClientTest, SurvivesAServerRestart) {
   ASSERT_TRUE(client.ok());
   ASSERT_TRUE((*client)->ListMaps().ok());
   first.server->Shutdown();
+  // Destroying the server terminates its ZeroMQ context, which waits until the listening
+  // socket is closed: the port is free before the second server binds it (Shutdown alone
+  // leaves the close to ZeroMQ's background thread, and an immediate rebind can race it).
+  const std::string endpoint = first.endpoint;
+  first.server.reset();
 
   auto pending = std::async(std::launch::async, [&] {
     return (*client)->Localise(test::kTestMapName, test::TourFeatures(9));
   });
   ServerOptions again = options;
-  again.endpoint = first.endpoint;  // the same port
+  again.endpoint = endpoint;  // the same port
   test::TestServer second = test::StartTestServer(again);
   ASSERT_NE(second.server, nullptr);
   auto reply = pending.get();
