@@ -71,7 +71,8 @@ void BM_Extract(benchmark::State& state) {
   const auto extractor = FeatureExtractor::Create(fixture->map.options.extractor);
   size_t i = 0;
   for (auto _ : state) {
-    auto f = extractor->Extract(fixture->images[i++ % fixture->images.size()]);
+    const cv::Mat& image = fixture->images[i++ % fixture->images.size()];
+    auto f = extractor->Extract(image, fixture->map.QueryTarget(image.cols, image.rows));
     benchmark::DoNotOptimize(f);
   }
   state.SetLabel(std::to_string(fixture->images[0].cols) + "x" +
@@ -116,7 +117,9 @@ int main(int argc, char** argv) {
     sceneloc::MakeSynthetic();
   }
   const auto extractor = sceneloc::FeatureExtractor::Create(f.map.options.extractor);
-  for (const auto& image : f.images) f.queries.push_back(*extractor->Extract(image));
+  for (const auto& image : f.images) {
+    f.queries.push_back(*extractor->Extract(image, f.map.QueryTarget(image.cols, image.rows)));
+  }
   int n = static_cast<int>(rest.size());
   benchmark::Initialize(&n, rest.data());
   benchmark::RunSpecifiedBenchmarks();

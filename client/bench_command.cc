@@ -3,8 +3,10 @@
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 
+#include "client/client_extractor.h"
 #include "client/load_generator.h"
 #include "common/config/config.h"
 #include "common/features/extractor.h"
@@ -23,26 +25,14 @@ StatusOr<std::string> ReadBytes(const std::string& path) {
   return bytes.str();
 }
 
-// The extractor settings --features uses (see BenchArgs).
-StatusOr<ExtractorOptions> ExtractorSettings(const BenchArgs& args) {
-  TrainOptions options;
-  if (!args.map_file.empty()) {
-    SCENELOC_ASSIGN_OR_RETURN(const Map map, LoadMap(args.map_file));
-    return map.options.extractor;
-  }
-  if (!args.config.empty()) SCENELOC_RETURN_IF_ERROR(LoadTrainOptions(args.config, &options));
-  if (args.image_scale > 0) options.extractor.image_scale = args.image_scale;
-  SCENELOC_RETURN_IF_ERROR(options.extractor.Validate());
-  return options.extractor;
-}
-
 // Every image of the folder as a ready request: read (and extracted) once, here.
 StatusOr<std::vector<LoadQuery>> PrepareQueries(const BenchArgs& args) {
   SCENELOC_ASSIGN_OR_RETURN(const std::vector<std::string> paths, ListImageFiles(args.image_dir));
-  std::unique_ptr<FeatureExtractor> extractor;
+  std::optional<ClientExtractor> extractor;
   if (args.features) {
-    SCENELOC_ASSIGN_OR_RETURN(const ExtractorOptions settings, ExtractorSettings(args));
-    extractor = FeatureExtractor::Create(settings);
+    auto created = ClientExtractor::Create({args.map_file, args.config, args.working_size});
+    if (!created.ok()) return created.status();
+    extractor = std::move(created).value();
   }
   std::vector<LoadQuery> queries;
   for (const std::string& path : paths) {

@@ -23,12 +23,12 @@ struct BenchArgs {
   int timeout_ms = 10000;
   int top_k = 0;
   bool features = false;
-  // Extractor settings for --features, first match wins: the map file's own settings
-  // (map_file), else the training settings file (config) with image_scale over it when
-  // > 0, else the defaults — as `sceneloc extract` does.
+  // Extractor settings for --features (client_extractor.h), as `sceneloc extract` takes
+  // them: the map file's own settings and frame, else the training settings file (config)
+  // with working_size over it when > 0, else the defaults.
   std::string map_file;
   std::string config;
-  double image_scale = 0;
+  int working_size = 0;
   std::string json_out;  // empty: no JSON file
 };
 

@@ -14,6 +14,7 @@
 
 #include "client/bench_command.h"
 #include "client/client.h"
+#include "client/client_extractor.h"
 #include "common/config/config.h"
 #include "common/features/extractor.h"
 
@@ -87,18 +88,10 @@ int RunLocalise(sceneloc::Client* client, const std::string& map,
 }
 
 int RunExtract(const std::string& image_path, const std::string& out_path,
-               const std::string& config, double image_scale, bool uint8) {
-  sceneloc::TrainOptions options;
-  if (!config.empty()) {
-    const Status s = sceneloc::LoadTrainOptions(config, &options);
-    if (!s.ok()) {
-      std::fprintf(stderr, "sceneloc: %s\n", s.message().c_str());
-      return 2;
-    }
-  }
-  if (image_scale > 0) options.extractor.image_scale = image_scale;
-  if (const Status s = options.extractor.Validate(); !s.ok()) {
-    std::fprintf(stderr, "sceneloc: %s\n", s.message().c_str());
+               const sceneloc::ClientExtractorSource& source, bool uint8) {
+  auto extractor = sceneloc::ClientExtractor::Create(source);
+  if (!extractor.ok()) {
+    std::fprintf(stderr, "sceneloc: %s\n", extractor.status().message().c_str());
     return 2;
   }
   auto image = sceneloc::ReadImageFile(image_path);
@@ -106,7 +99,7 @@ int RunExtract(const std::string& image_path, const std::string& out_path,
     std::fprintf(stderr, "sceneloc: %s\n", image.status().message().c_str());
     return 2;
   }
-  auto features = sceneloc::FeatureExtractor::Create(options.extractor)->Extract(*image);
+  auto features = extractor->Extract(*image);
   if (!features.ok()) {
     std::fprintf(stderr, "sceneloc: %s: %s\n", image_path.c_str(),
                  features.status().message().c_str());
@@ -145,7 +138,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> inputs;
   bool features = false, uint8 = false;
   int top_k = 0, timeout_ms = 10000;
-  double image_scale = 0;
+  sceneloc::ClientExtractorSource extract_source;
 
   CLI::App* localise = app.add_subcommand("localise", "localise images (or feature sets)");
   localise->add_option("--server", server, "server endpoint, e.g. tcp://localhost:5555")
@@ -160,8 +153,12 @@ int main(int argc, char** argv) {
   CLI::App* extract = app.add_subcommand("extract", "compute an image's feature set locally");
   extract->add_option("image", inputs, "image file")->required()->expected(1);
   extract->add_option("--out", out, "feature-set file to write")->required();
-  extract->add_option("--config", config, "training settings whose extractor: section to use");
-  extract->add_option("--image-scale", image_scale, "override extractor.image_scale (0, 1]");
+  extract->add_option("--map-file", extract_source.map_file,
+                      "extract as the server would for this map (its settings and frame)");
+  extract->add_option("--config", extract_source.config,
+                      "else: training settings whose extractor: section to use");
+  extract->add_option("--working-size", extract_source.working_size,
+                      "else: override extractor.working_size (long side, pixels)");
   extract->add_flag("--uint8", uint8, "store descriptors as uint8 (4x smaller)");
 
   CLI::App* maps = app.add_subcommand("maps", "list the server's maps");
@@ -187,8 +184,8 @@ int main(int argc, char** argv) {
                     "with --features: take the extractor settings from this map file");
   bench->add_option("--config", bench_args.config,
                     "with --features: training settings whose extractor: section to use");
-  bench->add_option("--image-scale", bench_args.image_scale,
-                    "with --features: override extractor.image_scale (0, 1]");
+  bench->add_option("--working-size", bench_args.working_size,
+                    "with --features: override extractor.working_size (long side, pixels)");
   bench->add_option("--json", bench_args.json_out, "write the results as JSON to this file");
   bench->add_option("--top-k", bench_args.top_k, "ranked locations wanted (0 = server default)");
   bench->add_option("--timeout-ms", bench_args.timeout_ms, "per request; no retries")
@@ -196,7 +193,7 @@ int main(int argc, char** argv) {
   bench->add_option("dir", bench_args.image_dir, "folder of query images")->required();
   CLI11_PARSE(app, argc, argv);
 
-  if (extract->parsed()) return RunExtract(inputs[0], out, config, image_scale, uint8);
+  if (extract->parsed()) return RunExtract(inputs[0], out, extract_source, uint8);
   if (bench->parsed()) return sceneloc::RunBench(bench_args);
   auto client = Connect(server, timeout_ms);
   if (!client.ok()) {

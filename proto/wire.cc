@@ -70,6 +70,26 @@ Status DecodeMatrix(const v1::DescriptorMatrix& wire, int n, const char* which,
   return Status::Ok();
 }
 
+// The holistic descriptor, if any: grid sizes in range and values for exactly the grid.
+Status DecodeHolistic(const v1::Holistic& wire, FeatureSet* out) {
+  if (wire.cols() == 0 && wire.rows() == 0 && wire.bins() == 0 && wire.values_size() == 0) {
+    return Status::Ok();
+  }
+  if (wire.cols() < 1 || wire.cols() > 64 || wire.rows() < 1 || wire.rows() > 256 ||
+      wire.bins() < 1 || wire.bins() > 36) {
+    return InvalidArgument("holistic grid " + std::to_string(wire.cols()) + "x" +
+                           std::to_string(wire.rows()) + "x" + std::to_string(wire.bins()) +
+                           " is out of range");
+  }
+  out->holistic_grid = {wire.cols(), wire.rows(), wire.bins()};
+  if (wire.values_size() != out->holistic_grid.size()) {
+    return InvalidArgument("holistic descriptor holds " + std::to_string(wire.values_size()) +
+                           " values; its grid needs " + std::to_string(out->holistic_grid.size()));
+  }
+  out->holistic.assign(wire.values().begin(), wire.values().end());
+  return Status::Ok();
+}
+
 }  // namespace
 
 Status FeatureSetLimits::Validate() const {
@@ -95,6 +115,13 @@ void EncodeFeatureSet(const FeatureSet& features, DescriptorEncoding encoding,
   }
   EncodeMatrix(features.local, encoding, out->mutable_local());
   EncodeMatrix(features.context, encoding, out->mutable_context());
+  if (!features.holistic.empty()) {
+    v1::Holistic* h = out->mutable_holistic();
+    h->set_cols(features.holistic_grid.cols);
+    h->set_rows(features.holistic_grid.rows);
+    h->set_bins(features.holistic_grid.bins);
+    h->mutable_values()->Add(features.holistic.begin(), features.holistic.end());
+  }
 }
 
 StatusOr<FeatureSet> DecodeFeatureSet(const v1::FeatureSet& wire, const FeatureSetLimits& limits) {
@@ -121,6 +148,7 @@ StatusOr<FeatureSet> DecodeFeatureSet(const v1::FeatureSet& wire, const FeatureS
   }
   SCENELOC_RETURN_IF_ERROR(DecodeMatrix(wire.local(), n, "local", &f.local));
   SCENELOC_RETURN_IF_ERROR(DecodeMatrix(wire.context(), n, "context", &f.context));
+  SCENELOC_RETURN_IF_ERROR(DecodeHolistic(wire.holistic(), &f));
   SCENELOC_RETURN_IF_ERROR(ValidateFeatureSet(f));
   if (wire.local().float32_size() != 0) SCENELOC_RETURN_IF_ERROR(CheckUnitRows(f.local, "local"));
   if (wire.context().float32_size() != 0) {

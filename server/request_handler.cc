@@ -51,7 +51,7 @@ StatusOr<FeatureSet> ExtractJpeg(const std::string& jpeg, const LoadedMap& map,
   SCENELOC_ASSIGN_OR_RETURN(const cv::Mat image, DecodeImage(jpeg, limits.max_image_side));
   timings->set_decode_ms(watch.Milliseconds());
   watch.Reset();
-  auto features = map.extractor->Extract(image);
+  auto features = map.extractor->Extract(image, map.map.QueryTarget(image.cols, image.rows));
   timings->set_extract_ms(watch.Milliseconds());
   return features;
 }

@@ -64,6 +64,18 @@ nlohmann::json ReportJson(const EvalSummary& s, const std::vector<sceneloc::Quer
                         {"extract_ms", o.extract_ms},
                         {"match_ms", o.match_ms}};
     if (s.has_baseline) q["baseline_predicted"] = o.baseline_predicted;
+    q["candidates"] = nlohmann::json::array();
+    for (const sceneloc::CandidateEvidence& c : o.candidates) {
+      q["candidates"].push_back({{"location", c.location},
+                                 {"likelihood", c.likelihood},
+                                 {"holistic", c.holistic},
+                                 {"holistic_rank", c.holistic_rank},
+                                 {"holistic_z", c.holistic_z},
+                                 {"correspondences", c.correspondences},
+                                 {"inliers", c.inliers},
+                                 {"log_scale", c.log_scale},
+                                 {"score", c.score}});
+    }
     j["per_query"].push_back(q);
   }
   return j;
@@ -136,15 +148,25 @@ int main(int argc, char** argv) {
   const auto extractor = sceneloc::FeatureExtractor::Create(map->options.extractor);
   std::vector<sceneloc::FeatureSet> queries;
   std::vector<sceneloc::QueryOutcome> outcomes(paths->size());
+  cv::Size first_size;
+  size_t mixed_sizes = 0;
   for (size_t q = 0; q < paths->size(); ++q) {
     auto image = sceneloc::ReadImageFile((*paths)[q]);
     if (!image.ok()) return Fail(image.status().message());
+    if (q == 0) first_size = image->size();
+    if (image->size() != first_size) ++mixed_sizes;
     sceneloc::Stopwatch watch;
-    auto features = extractor->Extract(*image);
+    auto features = extractor->Extract(*image, map->QueryTarget(image->cols, image->rows));
     if (!features.ok()) return Fail((*paths)[q] + ": " + features.status().message());
     outcomes[q].extract_ms = watch.Milliseconds();
     outcomes[q].name = names[q];
     queries.push_back(std::move(features).value());
+  }
+  if (mixed_sizes > 0) {
+    std::fprintf(stderr,
+                 "sceneloc-eval: warning: %zu of %zu query images differ in size from the first "
+                 "(%dx%d); each is brought into the map's frame\n",
+                 mixed_sizes, paths->size(), first_size.width, first_size.height);
   }
   // After reading the images, so a file that is not an image is reported as such.
   auto truth = sceneloc::ResolveTruth(names, map->image_names, ground_truth);

@@ -46,8 +46,12 @@ StatusOr<Data> LoadData(const Context& c, const ExtractorOptions& extractor) {
   Data d;
   SCENELOC_ASSIGN_OR_RETURN(
       d.tour, ExtractFolderCached(c.tour_dir, extractor, c.cache_dir, c.threads, &d.tour_names));
+  ExtractionTarget frame;
+  frame.width = d.tour.front().image_width;
+  frame.height = d.tour.front().image_height;
+  frame.holistic = d.tour.front().holistic_grid;
   SCENELOC_ASSIGN_OR_RETURN(d.queries, ExtractFolderCached(c.queries_dir, extractor, c.cache_dir,
-                                                           c.threads, &d.query_names));
+                                                           c.threads, &d.query_names, &frame));
   SCENELOC_ASSIGN_OR_RETURN(d.truth, ResolveTruth(d.query_names, d.tour_names, {}));
   return d;
 }
@@ -153,7 +157,7 @@ std::vector<sl::Settings> AblationVariants(const sl::Settings& base) {
     s->match.verify_top = 0;
     s->train.local_var_floor = 0.02;
     s->train.context_var_floor = 0.002;
-    s->train.distance_var_floor = 100;
+    s->train.distance_sd_floor = 10.0 / 480;
     s->train.angle_var_floor = 0.01;
   });
   add("no_verification", [](sl::Settings* s) { s->match.verify_top = 0; });
@@ -165,13 +169,13 @@ std::vector<sl::Settings> AblationVariants(const sl::Settings& base) {
     s->train.context_var_floor = 0.002;
   });
   add("paper_spatial_floors", [](sl::Settings* s) {
-    s->train.distance_var_floor = 100;
+    s->train.distance_sd_floor = 10.0 / 480;
     s->train.angle_var_floor = 0.01;
   });
   add("eta_all", [](sl::Settings* s) { s->train.eta = 0; });
   add("distinctiveness", [](sl::Settings* s) { s->match.distinctiveness = true; });
   add("max_features_500", [](sl::Settings* s) { s->train.extractor.max_features = 500; });
-  add("full_resolution", [](sl::Settings* s) { s->train.extractor.image_scale = 1.0; });
+  add("full_resolution", [](sl::Settings* s) { s->train.extractor.working_size = 960; });
   add("single_view_landmarks", [](sl::Settings* s) { s->train.min_track_length = 1; });
   return v;
 }
@@ -249,7 +253,7 @@ int main(int argc, char** argv) {
   for (const auto& [settings, n] : plan) {
     const bool same_features =
         settings.train.extractor.max_features == base.train.extractor.max_features &&
-        settings.train.extractor.image_scale == base.train.extractor.image_scale;
+        settings.train.extractor.working_size == base.train.extractor.working_size;
     if (!same_features) {  // a variant of the extractor: its own (cached) features
       auto own = sl::LoadData(c, settings.train.extractor);
       if (!own.ok()) return Fail(own.status().message());

@@ -1,6 +1,7 @@
 #include "common/features/extractor.h"
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -10,8 +11,8 @@ namespace sceneloc {
 
 Status ExtractorOptions::Validate() const {
   if (max_features < 0) return InvalidArgument("max_features must be >= 0 (0 = no cap)");
-  if (!(image_scale > 0.0 && image_scale <= 1.0)) {
-    return InvalidArgument("image_scale must be in (0, 1]");
+  if (working_size < 64 || working_size > 4096) {
+    return InvalidArgument("working_size must be in [64, 4096]");
   }
   if (!(context_scale > 1.0 && context_scale <= 8.0)) {
     return InvalidArgument("context_scale must be in (1, 8]");
@@ -19,8 +20,33 @@ Status ExtractorOptions::Validate() const {
   if (!(contrast_threshold > 0.0)) return InvalidArgument("contrast_threshold must be > 0");
   if (!(edge_threshold > 0.0)) return InvalidArgument("edge_threshold must be > 0");
   if (!(sigma > 0.0)) return InvalidArgument("sigma must be > 0");
-  if (max_image_side < 16) return InvalidArgument("max_image_side must be >= 16");
+  if (max_image_side < kMinImageSide) return InvalidArgument("max_image_side must be >= 16");
+  SCENELOC_RETURN_IF_ERROR(holistic.Validate());
   return Status::Ok();
+}
+
+ExtractionTarget TourTarget(int width, int height, const ExtractorOptions& options) {
+  const double scale =
+      std::min(kMaxUpscale, static_cast<double>(options.working_size) / std::max(width, height));
+  ExtractionTarget t;
+  t.width = std::max(1, static_cast<int>(std::lround(width * scale)));
+  t.height = std::max(1, static_cast<int>(std::lround(height * scale)));
+  t.holistic = GridForFrame(t.width, t.height, options.holistic);
+  return t;
+}
+
+ExtractionTarget QueryTarget(int width, int height, int map_width, const HolisticGrid& map_grid) {
+  const double scale = static_cast<double>(map_width) / width;
+  ExtractionTarget t;
+  t.width = map_width;
+  t.height = std::max(1, static_cast<int>(std::lround(height * scale)));
+  t.holistic = map_grid;
+  return t;
+}
+
+StatusOr<FeatureSet> FeatureExtractor::ExtractTour(const cv::Mat& image) const {
+  if (image.empty()) return InvalidArgument("empty image");
+  return Extract(image, TourTarget(image.cols, image.rows, options()));
 }
 
 namespace {
@@ -39,28 +65,41 @@ class SiftExtractor final : public FeatureExtractor {
 
   const ExtractorOptions& options() const override { return options_; }
 
-  StatusOr<FeatureSet> Extract(const cv::Mat& image) const override {
+  StatusOr<FeatureSet> Extract(const cv::Mat& image,
+                               const ExtractionTarget& target) const override {
     if (image.empty()) return InvalidArgument("empty image");
     if (image.depth() != CV_8U) return InvalidArgument("image must be 8-bit");
+    const std::string size = std::to_string(image.cols) + "x" + std::to_string(image.rows);
     if (image.cols > options_.max_image_side || image.rows > options_.max_image_side) {
-      return ResourceExhausted("image is " + std::to_string(image.cols) + "x" +
-                               std::to_string(image.rows) + ", larger than max_image_side " +
+      return ResourceExhausted("image is " + size + ", larger than max_image_side " +
                                std::to_string(options_.max_image_side));
     }
+    if (image.cols < kMinImageSide || image.rows < kMinImageSide) {
+      return InvalidArgument("image is " + size + ", too small to hold features (at least " +
+                             std::to_string(kMinImageSide) + " pixels per side)");
+    }
+    if (target.width < kMinImageSide || target.height < kMinImageSide ||
+        target.width > options_.max_image_side || target.height > options_.max_image_side) {
+      return InvalidArgument("image of " + size + " maps to a working frame of " +
+                             std::to_string(target.width) + "x" + std::to_string(target.height) +
+                             ", outside [" + std::to_string(kMinImageSide) + ", " +
+                             std::to_string(options_.max_image_side) + "] pixels per side");
+    }
     try {
-      return ExtractOrThrow(image);
+      return ExtractOrThrow(image, target);
     } catch (const cv::Exception& e) {
       return Internal(std::string("OpenCV failed during extraction: ") + e.what());
     }
   }
 
  private:
-  FeatureSet ExtractOrThrow(const cv::Mat& image) const {
+  FeatureSet ExtractOrThrow(const cv::Mat& image, const ExtractionTarget& target) const {
     cv::Mat gray = ToGray(image);
-    if (options_.image_scale != 1.0) {
+    if (gray.cols != target.width || gray.rows != target.height) {
       cv::Mat scaled;
-      cv::resize(gray, scaled, cv::Size(), options_.image_scale, options_.image_scale,
-                 cv::INTER_AREA);
+      const bool shrink = target.width <= gray.cols && target.height <= gray.rows;
+      cv::resize(gray, scaled, cv::Size(target.width, target.height), 0, 0,
+                 shrink ? cv::INTER_AREA : cv::INTER_LINEAR);
       gray = scaled;
     }
     // cv::SIFT holds per-call scratch state, so each call makes its own (cheap).
@@ -105,6 +144,10 @@ class SiftExtractor final : public FeatureExtractor {
     }
     NormaliseRows(&set.local);
     NormaliseRows(&set.context);
+    if (!target.holistic.empty()) {
+      set.holistic_grid = target.holistic;
+      set.holistic = ComputeHolistic(gray, target.holistic, options_.holistic.cell_pixels);
+    }
     return set;
   }
 

@@ -1,6 +1,14 @@
-// Feature extraction: SIFT keypoints with a local and a context descriptor each.
-// The one extractor used by training, evaluation and the server, so a map and the
-// frames matched against it always see the same features.
+// Feature extraction: SIFT keypoints with a local and a context descriptor each, and a
+// holistic descriptor of the whole frame (holistic.h). The one extractor used by training,
+// evaluation, the server and the client, so a map and the frames matched against it always
+// see the same features.
+//
+// The working frame. Every image is resized (down or up) to a frame of known size before
+// anything is extracted, so that what a map learns in pixels means the same for every query:
+//   - a tour image goes to its *tour frame*: long side = working_size (TourTarget);
+//   - a query goes to the frame of the map it is matched against, scaled uniformly so its
+//     width is the map frame's width (MapTarget in common/map/map.h), whatever camera or
+//     resolution it came from.
 #pragma once
 
 #include <memory>
@@ -8,16 +16,24 @@
 #include <string>
 
 #include "common/features/feature_set.h"
+#include "common/features/holistic.h"
 #include "common/util/status.h"
 
 namespace sceneloc {
 
+// Images smaller than this on either side hold no usable feature and are refused.
+inline constexpr int kMinImageSide = 16;
+// Small images are enlarged by at most this factor to reach their working frame (a 160x120
+// frame reaches 480x360; a 40x30 one stops at 160x120).
+inline constexpr double kMaxUpscale = 4.0;
+
 struct ExtractorOptions {
   // Keep at most this many keypoints per image, strongest response first. 0 = no cap.
   int max_features = 1000;
-  // Resize every image by this factor before extraction (0 < s <= 1). 0.5 turns a
-  // 960x540 frame into 480x270. Keypoint coordinates are in the resized frame.
-  double image_scale = 0.5;
+  // Long side of a tour's working frame, pixels: 960x540 tours work at 480x270, 160x120
+  // ones at 480x360 (enlarged: SIFT finds few features in tiny frames). Every pixel-unit
+  // setting of a map is relative to this frame.
+  int working_size = 480;
   // The context descriptor is computed at this multiple of the keypoint size (paper: 2).
   double context_scale = 2.0;
   // SIFT detector settings (OpenCV defaults).
@@ -26,9 +42,27 @@ struct ExtractorOptions {
   double sigma = 1.6;
   // Refuse images larger than this many pixels per side (untrusted input).
   int max_image_side = 8192;
+  // The holistic descriptor (holistic.h); holistic.cols = 0 turns it off.
+  HolisticOptions holistic;
 
   Status Validate() const;
 };
+
+// Where one image is extracted: the frame it is resized to and the holistic grid.
+struct ExtractionTarget {
+  int width = 0;  // working frame, pixels
+  int height = 0;
+  HolisticGrid holistic;  // empty: no holistic descriptor
+};
+
+// The tour frame of an image of `width` x `height`: long side = working_size (enlarged at
+// most kMaxUpscale times). REQUIRES: width, height > 0.
+ExtractionTarget TourTarget(int width, int height, const ExtractorOptions& options);
+
+// The frame of a query of `width` x `height` matched against a map whose working frame is
+// `map_width` wide: the same uniform scale brings the query's width to map_width, and the
+// holistic descriptor uses the map's grid. REQUIRES: all sizes > 0.
+ExtractionTarget QueryTarget(int width, int height, int map_width, const HolisticGrid& map_grid);
 
 // Thread-safe: Extract() may be called from several threads at once.
 class FeatureExtractor {
@@ -36,9 +70,13 @@ class FeatureExtractor {
   virtual ~FeatureExtractor() = default;
   static std::unique_ptr<FeatureExtractor> Create(const ExtractorOptions& options);
 
-  // Extracts features from a decoded image (8-bit, 1 or 3 channels, at full size: the
-  // extractor applies image_scale itself).
-  virtual StatusOr<FeatureSet> Extract(const cv::Mat& image) const = 0;
+  // Extracts features from a decoded image (8-bit, 1, 3 or 4 channels, at any size) in
+  // `target`. Errors: an empty, non-8-bit, too large (max_image_side) or too small
+  // (kMinImageSide) image, or a target frame below kMinImageSide.
+  virtual StatusOr<FeatureSet> Extract(const cv::Mat& image,
+                                       const ExtractionTarget& target) const = 0;
+  // The same in the image's own tour frame (TourTarget).
+  StatusOr<FeatureSet> ExtractTour(const cv::Mat& image) const;
   virtual const ExtractorOptions& options() const = 0;
 };
 

@@ -16,7 +16,7 @@ inline constexpr int kHistogramBins = 8;
 using DescriptorMatrix = Eigen::Matrix<float, Eigen::Dynamic, kDescriptorSize, Eigen::RowMajor>;
 
 struct Keypoint {
-  float x = 0;         // pixels, in the extraction frame (the image after image_scale)
+  float x = 0;         // pixels, in the working frame (extractor.h)
   float y = 0;         // pixels
   float size = 0;      // SIFT keypoint diameter, pixels
   float angle = 0;     // degrees in [0, 360), OpenCV's convention
@@ -24,13 +24,31 @@ struct Keypoint {
   int octave = 0;      // OpenCV's packed octave/layer, kept so descriptors can be recomputed
 };
 
+// The grid of a holistic descriptor (holistic.h): rows x cols cells of `bins` values each.
+struct HolisticGrid {
+  int cols = 0;
+  int rows = 0;
+  int bins = 0;
+
+  int size() const { return cols * rows * bins; }
+  bool empty() const { return size() == 0; }
+  bool operator==(const HolisticGrid& o) const {
+    return cols == o.cols && rows == o.rows && bins == o.bins;
+  }
+  bool operator!=(const HolisticGrid& o) const { return !(*this == o); }
+};
+
 struct FeatureSet {
-  int image_width = 0;   // extraction frame, pixels
-  int image_height = 0;  // extraction frame, pixels
+  int image_width = 0;   // working frame the keypoints are in, pixels
+  int image_height = 0;  // working frame, pixels
   std::vector<Keypoint> keypoints;
   // Row i describes keypoints[i]. Both are L2-normalised per row.
   DescriptorMatrix local;    // standard SIFT at the keypoint's size
   DescriptorMatrix context;  // SIFT at the same point and angle, twice the size
+  // The holistic descriptor of the whole frame (holistic.h), holistic_grid.size() values;
+  // both empty when it was not computed (a thin client may leave it out).
+  HolisticGrid holistic_grid;
+  std::vector<float> holistic;
 
   int size() const { return static_cast<int>(keypoints.size()); }
 };

@@ -152,11 +152,28 @@ Status ValidateImages(const Map& map) {
     if (map.image_names[i].empty())
       return DataLoss("image_names[" + std::to_string(i) + "] is empty");
   }
-  if (map.image_width <= 0 || map.image_height <= 0) {
+  if (map.image_width < kMinImageSide || map.image_height < kMinImageSide ||
+      map.image_width > map.options.extractor.max_image_side ||
+      map.image_height > map.options.extractor.max_image_side) {
     return DataLoss("image size " + std::to_string(map.image_width) + "x" +
-                    std::to_string(map.image_height) + " must be positive");
+                    std::to_string(map.image_height) + " must be in [" +
+                    std::to_string(kMinImageSide) + ", max_image_side] per side");
   }
   return Status::Ok();
+}
+
+Status ValidateHolistic(const Map& map) {
+  const HolisticGrid& g = map.holistic_grid;
+  if (g.cols == 0 && g.rows == 0 && g.bins == 0 && map.holistic.empty()) return Status::Ok();
+  if (g.cols < 1 || g.rows < 1 || g.bins < 1 || g.cols > 64 || g.rows > 256 || g.bins > 36) {
+    return DataLoss("holistic grid " + std::to_string(g.cols) + "x" + std::to_string(g.rows) + "x" +
+                    std::to_string(g.bins) + " is out of range");
+  }
+  SCENELOC_RETURN_IF_ERROR(CheckCount("holistic", map.holistic.size(),
+                                      map.image_names.size() * static_cast<size_t>(g.size()),
+                                      "images x holistic grid values"));
+  return CheckValues("holistic", map.holistic.data(), map.holistic.size(),
+                     static_cast<size_t>(g.size()), Range::kUnitInterval);
 }
 
 // Every per-landmark array holds L entries (rows for the matrices).
@@ -184,6 +201,10 @@ Status ValidateObservations(const Map& map) {
       CheckCount("observation_y", map.observation_y.size(), n, "observations"));
   SCENELOC_RETURN_IF_ERROR(
       CheckCount("observation_size", map.observation_size.size(), n, "observations"));
+  if (!map.observation_angle.empty()) {
+    SCENELOC_RETURN_IF_ERROR(
+        CheckCount("observation_angle", map.observation_angle.size(), n, "observations"));
+  }
   return CheckIndices(
       map.observation_offsets, [&](uint32_t j) { return map.observation_image[j]; },
       map.image_names.size(), "observation", "landmark", "image", "images");
@@ -218,6 +239,7 @@ Status ValidateLandmarkValues(const Map& map) {
   SCENELOC_RETURN_IF_ERROR(CheckVector("quality", map.quality, Range::kAny));
   SCENELOC_RETURN_IF_ERROR(CheckVector("observation_x", map.observation_x, Range::kAny));
   SCENELOC_RETURN_IF_ERROR(CheckVector("observation_y", map.observation_y, Range::kAny));
+  SCENELOC_RETURN_IF_ERROR(CheckVector("observation_angle", map.observation_angle, Range::kAny));
   return CheckVector("observation_size", map.observation_size, Range::kPositive);
 }
 
@@ -265,6 +287,7 @@ Status Map::Validate() const {
   Status options_status = options.Validate();
   if (!options_status.ok()) return DataLoss("training options: " + options_status.message());
   SCENELOC_RETURN_IF_ERROR(ValidateImages(*this));
+  SCENELOC_RETURN_IF_ERROR(ValidateHolistic(*this));
   SCENELOC_RETURN_IF_ERROR(ValidateLandmarkCounts(*this));
   SCENELOC_RETURN_IF_ERROR(ValidateObservations(*this));
   SCENELOC_RETURN_IF_ERROR(ValidateNeighbourLinks(*this));
@@ -282,14 +305,15 @@ void Map::Finalize() {
 size_t Map::MemoryBytes() const {
   size_t bytes = sizeof(Map) + provenance.tour_dir.capacity() + provenance.created_utc.capacity() +
                  provenance.tool_version.capacity();
-  bytes += VectorBytes(image_names);
+  bytes += VectorBytes(image_names) + VectorBytes(holistic);
   for (const std::string& name : image_names) bytes += name.capacity();
   bytes += MatrixBytes(local_mean) + MatrixBytes(context_mean) + MatrixBytes(context_dmax) +
            MatrixBytes(context_var);
   bytes += VectorBytes(local_dmax) + VectorBytes(local_var) + VectorBytes(mean_x) +
            VectorBytes(mean_y) + VectorBytes(quality);
   bytes += VectorBytes(observation_offsets) + VectorBytes(observation_image) +
-           VectorBytes(observation_x) + VectorBytes(observation_y) + VectorBytes(observation_size);
+           VectorBytes(observation_x) + VectorBytes(observation_y) + VectorBytes(observation_size) +
+           VectorBytes(observation_angle);
   bytes += VectorBytes(neighbour_offsets) + VectorBytes(neighbours);
   bytes += VectorBytes(image_offsets) + VectorBytes(image_landmarks);
   return bytes + VectorBytes(local_mean_sqnorm);

@@ -9,6 +9,7 @@
 // std::shared_ptr<const Map> between concurrent requests.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -49,8 +50,12 @@ struct Map {
 
   // Tour images, in tour order; the index is the location number.
   std::vector<std::string> image_names;
-  int image_width = 0;  // extraction frame of the tour images, pixels
+  int image_width = 0;  // working frame of the tour images (extractor.h), pixels
   int image_height = 0;
+  // Holistic descriptor of every tour image (holistic.h): N x holistic_grid.size() values,
+  // image after image. Both empty in maps made without one (format version 1).
+  HolisticGrid holistic_grid;
+  std::vector<float> holistic;
 
   // --- Landmarks: L rows each ---
   DescriptorMatrix local_mean;    // mu of the local descriptor
@@ -69,6 +74,9 @@ struct Map {
   std::vector<float> observation_x;
   std::vector<float> observation_y;
   std::vector<float> observation_size;  // keypoint size (diameter) in that image, pixels
+  // Keypoint orientation in that image, degrees in [0, 360) (OpenCV's convention); empty in
+  // maps of format version 1.
+  std::vector<float> observation_angle;
 
   // Neighbours (CSR over landmarks), sorted by distance from the landmark's mean position.
   std::vector<uint32_t> neighbour_offsets;  // L + 1
@@ -83,6 +91,16 @@ struct Map {
 
   int num_landmarks() const { return static_cast<int>(local_mean.rows()); }
   int num_images() const { return static_cast<int>(image_names.size()); }
+  bool has_holistic() const { return !holistic_grid.empty(); }
+  const float* holistic_of(int image) const {
+    return holistic.data() + static_cast<size_t>(image) * holistic_grid.size();
+  }
+  // The long side of the working frame: pixel-unit settings are fractions of it.
+  int frame_long_side() const { return std::max(image_width, image_height); }
+  // Where a query image of width x height is extracted to be matched against this map.
+  ExtractionTarget QueryTarget(int width, int height) const {
+    return sceneloc::QueryTarget(width, height, image_width, holistic_grid);
+  }
 
   // Checks every count and index for consistency; a map that passes can be matched
   // against without further bounds checks. Errors name the first inconsistency.

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cmath>
 #include <cstddef>
 #include <cstring>
 #include <filesystem>
@@ -35,7 +36,7 @@ static_assert(std::is_trivially_copyable_v<Neighbour> && sizeof(Neighbour) == 32
 // map_io.h and to the round-trip test, bump kMapFormatVersion, then update these sizes.
 static_assert(sizeof(void*) != 8 || sizeof(ExtractorOptions) == 56,
               "ExtractorOptions changed: update the map file format");
-static_assert(sizeof(void*) != 8 || sizeof(TrainOptions) == 160,
+static_assert(sizeof(void*) != 8 || sizeof(TrainOptions) == 168,
               "TrainOptions changed: update the map file format");
 
 template <typename T>
@@ -170,25 +171,53 @@ void PayloadReader::Copy(const char* name, void* out, size_t n) {
   pos_ += n;
 }
 
+// Fields of format version 1 that later versions store differently; read, then converted
+// by UpgradeV1 once the map's frame is known.
+struct V1Fields {
+  double image_scale = 0;          // now: extractor.working_size
+  double ransac_threshold_px = 0;  // now: ransac_threshold, a fraction of the frame
+  double distance_var_floor = 0;   // now: distance_sd_floor, a fraction of the frame
+};
+
 // The payload layout, shared by writing (Archive = PayloadWriter, const fields) and
-// reading (PayloadReader, mutable fields). Keep it in step with map_io.h.
-template <typename Archive, typename Options>
-void TransferOptions(Archive& a, Options& o) {
+// reading (PayloadReader, mutable fields) of format `version`. Keep it in step with
+// map_io.h. Writing always uses kMapFormatVersion.
+template <typename Archive, typename Options, typename V1>
+void TransferOptions(Archive& a, Options& o, uint32_t version, V1& v1) {
+  const bool v2 = version >= 2;
   a.Field("extractor.max_features", o.extractor.max_features);
-  a.Field("extractor.image_scale", o.extractor.image_scale);
+  if (v2) {
+    a.Field("extractor.working_size", o.extractor.working_size);
+  } else {
+    a.Field("extractor.image_scale", v1.image_scale);
+  }
   a.Field("extractor.context_scale", o.extractor.context_scale);
   a.Field("extractor.contrast_threshold", o.extractor.contrast_threshold);
   a.Field("extractor.edge_threshold", o.extractor.edge_threshold);
   a.Field("extractor.sigma", o.extractor.sigma);
   a.Field("extractor.max_image_side", o.extractor.max_image_side);
+  if (v2) {
+    a.Field("extractor.holistic_cols", o.extractor.holistic.cols);
+    a.Field("extractor.holistic_cell_pixels", o.extractor.holistic.cell_pixels);
+    a.Field("extractor.holistic_bins", o.extractor.holistic.bins);
+  }
   a.Field("track_distance_threshold", o.track_distance_threshold);
-  a.Field("ransac_threshold_px", o.ransac_threshold_px);
+  if (v2) {
+    a.Field("ransac_threshold", o.ransac_threshold);
+  } else {
+    a.Field("ransac_threshold_px", v1.ransac_threshold_px);
+  }
   a.Field("ransac_confidence", o.ransac_confidence);
   a.Field("min_links_per_pair", o.min_links_per_pair);
   a.Field("min_track_length", o.min_track_length);
+  if (v2) a.Field("min_landmarks_per_image", o.min_landmarks_per_image);
   a.Field("local_var_floor", o.local_var_floor);
   a.Field("context_var_floor", o.context_var_floor);
-  a.Field("distance_var_floor", o.distance_var_floor);
+  if (v2) {
+    a.Field("distance_sd_floor", o.distance_sd_floor);
+  } else {
+    a.Field("distance_var_floor", v1.distance_var_floor);
+  }
   a.Field("angle_var_floor", o.angle_var_floor);
   a.Field("quality_s_min", o.quality_s_min);
   a.Field("quality_fp_prior", o.quality_fp_prior);
@@ -207,13 +236,19 @@ void TransferProvenance(Archive& a, Provenance& p) {
   a.Field("provenance.num_candidates", p.num_candidates);
 }
 
-template <typename Archive, typename MapT>
-void TransferMap(Archive& a, MapT& m) {
-  TransferOptions(a, m.options);
+template <typename Archive, typename MapT, typename V1>
+void TransferMap(Archive& a, MapT& m, uint32_t version, V1& v1) {
+  TransferOptions(a, m.options, version, v1);
   TransferProvenance(a, m.provenance);
   a.Field("image_names", m.image_names);
   a.Field("image_width", m.image_width);
   a.Field("image_height", m.image_height);
+  if (version >= 2) {
+    a.Field("holistic_grid.cols", m.holistic_grid.cols);
+    a.Field("holistic_grid.rows", m.holistic_grid.rows);
+    a.Field("holistic_grid.bins", m.holistic_grid.bins);
+    a.Field("holistic", m.holistic);
+  }
   a.Field("local_mean", m.local_mean);
   a.Field("local_dmax", m.local_dmax);
   a.Field("local_var", m.local_var);
@@ -228,10 +263,24 @@ void TransferMap(Archive& a, MapT& m) {
   a.Field("observation_x", m.observation_x);
   a.Field("observation_y", m.observation_y);
   a.Field("observation_size", m.observation_size);
+  if (version >= 2) a.Field("observation_angle", m.observation_angle);
   a.Field("neighbour_offsets", m.neighbour_offsets);
   a.Field("neighbours", m.neighbours);
   a.Field("image_offsets", m.image_offsets);
   a.Field("image_landmarks", m.image_landmarks);
+}
+
+// A version-1 map in today's terms: its working frame is the frame it was made in, its
+// pixel settings become fractions of that frame, and it has no holistic descriptors and
+// no coverage rule. Leaves a settings error for Validate() to report.
+void UpgradeV1(const V1Fields& v1, Map* map) {
+  TrainOptions& o = map->options;
+  const double long_side = std::max(1, map->frame_long_side());
+  o.extractor.working_size = map->frame_long_side();
+  o.extractor.holistic.cols = 0;
+  o.ransac_threshold = v1.ransac_threshold_px / long_side;
+  o.distance_sd_floor = std::sqrt(std::max(0.0, v1.distance_var_floor)) / long_side;
+  o.min_landmarks_per_image = 0;
 }
 
 // --- Header ---
@@ -329,8 +378,9 @@ StatusOr<Map> ParseBuffer(const char* data, size_t size, const std::string& name
                     ", header says " + Hex(info.checksum) + " (corrupt file)");
   }
   Map map;
+  V1Fields v1;
   PayloadReader reader(payload, info.payload_bytes);
-  TransferMap(reader, map);
+  TransferMap(reader, map, info.format_version, v1);
   if (!reader.status().ok()) {
     return DataLoss(Label(name) + " is malformed: " + reader.status().message());
   }
@@ -338,6 +388,7 @@ StatusOr<Map> ParseBuffer(const char* data, size_t size, const std::string& name
     return DataLoss(Label(name) + " is malformed: " + std::to_string(reader.remaining()) +
                     " payload bytes follow the last field");
   }
+  if (info.format_version == 1) UpgradeV1(v1, &map);
   if (Status valid = map.Validate(); !valid.ok()) {
     return DataLoss(Label(name) + ": " + valid.message());
   }
@@ -437,7 +488,8 @@ std::string SerializeMap(const Map& map) {
   std::string out(kMapHeaderBytes, '\0');
   out.reserve(kMapHeaderBytes + map.MemoryBytes());  // slightly more than the payload
   PayloadWriter writer(&out);
-  TransferMap(writer, map);
+  V1Fields unused;
+  TransferMap(writer, map, kMapFormatVersion, unused);
   char* header = out.data();
   std::memcpy(header, kMapMagic, sizeof(kMapMagic));
   PutU32(kMapFormatVersion, header + kVersionOffset);

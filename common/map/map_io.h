@@ -3,7 +3,7 @@
 // sequence makes LoadMap or ParseMap crash, read out of bounds or allocate much more
 // than the file's own size; each failure is a status whose message names the file.
 //
-// Layout, format version 1. Integers are little-endian two's complement, f32/f64 are
+// Layout, format version 2. Integers are little-endian two's complement, f32/f64 are
 // IEEE 754 binary32/binary64 little-endian. There is no padding anywhere.
 //
 //   Header, 32 bytes:
@@ -14,24 +14,27 @@
 //     offset 24  u32      payload_crc     CRC-32 (IEEE, crc32.h) of the payload
 //     offset 28  u32      header_crc      CRC-32 of header bytes 0..27
 //   Payload, in this order:
-//     TrainOptions   extractor: i32 max_features, f64 image_scale, f64 context_scale,
+//     TrainOptions   extractor: i32 max_features, i32 working_size, f64 context_scale,
 //                      f64 contrast_threshold, f64 edge_threshold, f64 sigma,
-//                      i32 max_image_side;
-//                    f64 track_distance_threshold, f64 ransac_threshold_px,
+//                      i32 max_image_side, i32 holistic_cols, i32 holistic_cell_pixels,
+//                      i32 holistic_bins;
+//                    f64 track_distance_threshold, f64 ransac_threshold,
 //                    f64 ransac_confidence, i32 min_links_per_pair, i32 min_track_length,
-//                    f64 local_var_floor,
-//                    f64 context_var_floor, f64 distance_var_floor, f64 angle_var_floor,
+//                    i32 min_landmarks_per_image, f64 local_var_floor,
+//                    f64 context_var_floor, f64 distance_sd_floor, f64 angle_var_floor,
 //                    f64 quality_s_min, f64 quality_fp_prior, i32 eta, f64 q_min,
 //                    i32 max_neighbours
 //     MapProvenance  str tour_dir, str created_utc, str tool_version, u32 num_features,
 //                    u32 num_tracks, u32 num_candidates
-//     Images         u64 N, N x str image_names; i32 image_width, i32 image_height
+//     Images         u64 N, N x str image_names; i32 image_width, i32 image_height;
+//                    i32 holistic cols, i32 rows, i32 bins, arr<f32> holistic
+//                    (N x cols x rows x bins, or empty with a zero grid)
 //     Landmarks      mat local_mean (128 cols), arr<f32> local_dmax, arr<f32> local_var,
 //                    mat context_mean (128), mat context_dmax (16), mat context_var (16),
 //                    arr<f32> mean_x, arr<f32> mean_y, arr<f32> quality
 //     Observations   arr<u32> observation_offsets, arr<u32> observation_image,
 //                    arr<f32> observation_x, arr<f32> observation_y,
-//                    arr<f32> observation_size
+//                    arr<f32> observation_size, arr<f32> observation_angle
 //     Neighbours     arr<u32> neighbour_offsets, arr<neighbour> neighbours
 //     Image lists    arr<u32> image_offsets, arr<u32> image_landmarks
 //   where  str       = u64 byte count, then the bytes (UTF-8, no terminator)
@@ -40,12 +43,19 @@
 //                      row-major
 //          neighbour = 32 bytes: u32 landmark, then f32 cooccurrence, distance_mean,
 //                      distance_var, distance_dmax, angle_mean, angle_var, angle_dmax
+//
+//   Format version 1 (still read): extractor.working_size was f64 image_scale, and the
+//   holistic fields, min_landmarks_per_image and observation_angle were absent;
+//   ransac_threshold was f64 ransac_threshold_px and distance_sd_floor f64
+//   distance_var_floor (pixels^2). LoadMap converts such a map to today's terms: its
+//   working frame is the frame it was made in, pixel settings become fractions of it, and
+//   it has no holistic descriptors (see UpgradeV1 in map_io.cc).
 //   The derived Map fields (local_mean_sqnorm) are not stored; loading recomputes them.
 //
 // Compatibility: bytes 0..11 (magic and format version) mean the same in every version;
 // everything after them may change with the version. Any change to the layout above
-// bumps kMapFormatVersion. A reader refuses files of a newer version (Unimplemented)
-// rather than guess at them.
+// bumps kMapFormatVersion; every older version stays readable. A reader refuses files of
+// a newer version (Unimplemented) rather than guess at them.
 //
 // Thread-safe: these are free functions without shared state. Two concurrent SaveMap
 // calls for the same path from one process share a temporary file name and must not
@@ -62,7 +72,7 @@
 namespace sceneloc {
 
 inline constexpr char kMapMagic[8] = {'S', 'C', 'N', 'L', 'M', 'A', 'P', '\0'};
-inline constexpr uint32_t kMapFormatVersion = 1;
+inline constexpr uint32_t kMapFormatVersion = 2;
 inline constexpr size_t kMapHeaderBytes = 32;
 
 // What the header of a map file says.

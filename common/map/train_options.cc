@@ -34,7 +34,7 @@ Status CheckAtLeast(const char* name, double value, double min) {
                          Format(value));
 }
 
-// The extractor names its fields bare ("image_scale"); here they are one level down.
+// The extractor names its fields bare ("working_size"); here they are one level down.
 Status ValidateExtractor(const ExtractorOptions& extractor) {
   Status status = extractor.Validate();
   if (status.ok()) return status;
@@ -47,14 +47,15 @@ Status TrainOptions::Validate() const {
   SCENELOC_RETURN_IF_ERROR(ValidateExtractor(extractor));
   SCENELOC_RETURN_IF_ERROR(
       CheckOpenRange("track_distance_threshold", track_distance_threshold, 0.0, 2.0, false));
-  SCENELOC_RETURN_IF_ERROR(CheckPositive("ransac_threshold_px", ransac_threshold_px));
+  SCENELOC_RETURN_IF_ERROR(CheckOpenRange("ransac_threshold", ransac_threshold, 0.0, 0.1, false));
   SCENELOC_RETURN_IF_ERROR(
       CheckOpenRange("ransac_confidence", ransac_confidence, 0.0, 1.0, /*hi_open=*/true));
   SCENELOC_RETURN_IF_ERROR(CheckAtLeast("min_links_per_pair", min_links_per_pair, 8));
   SCENELOC_RETURN_IF_ERROR(CheckAtLeast("min_track_length", min_track_length, 1));
+  SCENELOC_RETURN_IF_ERROR(CheckAtLeast("min_landmarks_per_image", min_landmarks_per_image, 0));
   SCENELOC_RETURN_IF_ERROR(CheckPositive("local_var_floor", local_var_floor));
   SCENELOC_RETURN_IF_ERROR(CheckPositive("context_var_floor", context_var_floor));
-  SCENELOC_RETURN_IF_ERROR(CheckPositive("distance_var_floor", distance_var_floor));
+  SCENELOC_RETURN_IF_ERROR(CheckOpenRange("distance_sd_floor", distance_sd_floor, 0.0, 1.0, false));
   SCENELOC_RETURN_IF_ERROR(CheckPositive("angle_var_floor", angle_var_floor));
   SCENELOC_RETURN_IF_ERROR(
       CheckOpenRange("quality_s_min", quality_s_min, 0.0, 1.0, /*hi_open=*/true));

@@ -14,8 +14,9 @@ struct TrainOptions {
   // --- Tracking (paper II-A) ---
   // t: largest local-descriptor distance (L2, unit descriptors) for a candidate link.
   double track_distance_threshold = 0.6;
-  // RANSAC fundamental-matrix inlier threshold, pixels in the extraction frame.
-  double ransac_threshold_px = 2.0;
+  // RANSAC fundamental-matrix inlier threshold, as a fraction of the working frame's long
+  // side (0.0042 = 2 px at 480).
+  double ransac_threshold = 0.0042;
   // RANSAC confidence in (0, 1).
   double ransac_confidence = 0.99;
   // Fewer verified links than this between two images and none of them is kept
@@ -24,6 +25,11 @@ struct TrainOptions {
   // Tracks seen in fewer images than this make no landmark. The paper uses 2; 1 also
   // turns every untracked feature into a single-view landmark whose spread is the floors.
   int min_track_length = 2;
+  // Coverage: a tour image that holds fewer tracked landmark candidates than this (tracking
+  // failed around it: a turn, low texture, a sparse tour) gets single-view candidates from
+  // its strongest untracked features until it does, so no location is left unanswerable.
+  // 0 = the paper (tracks only).
+  int min_landmarks_per_image = 40;
 
   // --- Landmark model (paper II-B) ---
   // sigma^2_min for the local descriptor: the variance never falls below this, so a
@@ -34,9 +40,10 @@ struct TrainOptions {
   double local_var_floor = 0.16;
   // sigma^2_min for each of the 16 context histograms (same units, per histogram).
   double context_var_floor = 0.016;
-  // Floors for the spatial statistics of co-occurring landmarks: distance variance
-  // (pixels^2, extraction frame) and angle variance (radians^2).
-  double distance_var_floor = 400.0;
+  // Floors for the spatial statistics of co-occurring landmarks: the standard deviation of
+  // their distance, as a fraction of the working frame's long side (0.042 = 20 px at 480),
+  // and the variance of their angle (radians^2).
+  double distance_sd_floor = 0.042;
   double angle_var_floor = 0.05;
 
   // --- Quality and selection (paper IV) ---

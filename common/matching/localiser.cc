@@ -5,6 +5,7 @@
 #include <numeric>
 
 #include "common/matching/descriptor_similarity.h"
+#include "common/matching/holistic_similarity.h"
 #include "common/matching/neighbourhood.h"
 #include "common/matching/verification.h"
 #include "common/util/timer.h"
@@ -17,7 +18,24 @@ Status MatchOptions::Validate() const {
   if (top_k < 1 || top_k > 1000) return InvalidArgument("top_k must be in [1, 1000]");
   if (verify_top < 0 || verify_top > 1000)
     return InvalidArgument("verify_top must be in [0, 1000]");
-  if (!(verify_ransac_px > 0.0)) return InvalidArgument("verify_ransac_px must be > 0");
+  if (!(verify_angle_tolerance >= 0.0 && verify_angle_tolerance <= 180.0)) {
+    return InvalidArgument("verify_angle_tolerance must be in [0, 180]");
+  }
+  if (!(verify_chance_inliers >= 0.0 && verify_chance_inliers <= 1000.0)) {
+    return InvalidArgument("verify_chance_inliers must be in [0, 1000]");
+  }
+  if (!(verify_weight >= 0.0 && verify_weight <= 100.0)) {
+    return InvalidArgument("verify_weight must be in [0, 100]");
+  }
+  if (holistic_top < 0 || holistic_top > 1000) {
+    return InvalidArgument("holistic_top must be in [0, 1000]");
+  }
+  if (holistic_max_shift < 0 || holistic_max_shift > 16) {
+    return InvalidArgument("holistic_max_shift must be in [0, 16]");
+  }
+  if (!(verify_ransac_threshold > 0.0 && verify_ransac_threshold <= 0.1)) {
+    return InvalidArgument("verify_ransac_threshold must be in (0, 0.1]");
+  }
   if (verify_ransac_iterations < 1) return InvalidArgument("verify_ransac_iterations must be >= 1");
   if (!(verify_scale_sigma >= 0.0)) return InvalidArgument("verify_scale_sigma must be >= 0");
   if (!(size_exponent >= 0.0 && size_exponent <= 2.0)) {
@@ -44,6 +62,20 @@ Status ValidateFeatureSet(const FeatureSet& f) {
     if (!std::isfinite(k.x) || !std::isfinite(k.y) || !std::isfinite(k.size) ||
         !std::isfinite(k.angle)) {
       return InvalidArgument("keypoint " + std::to_string(i) + " holds a non-finite number");
+    }
+  }
+  const HolisticGrid& g = f.holistic_grid;
+  if (g.cols < 0 || g.rows < 0 || g.bins < 0 || g.cols > 64 || g.rows > 256 || g.bins > 36) {
+    return InvalidArgument("feature set holistic grid is out of range");
+  }
+  if (f.holistic.size() != static_cast<size_t>(g.size())) {
+    return InvalidArgument("feature set holistic descriptor has " +
+                           std::to_string(f.holistic.size()) + " values, its grid " +
+                           std::to_string(g.size()));
+  }
+  for (float v : f.holistic) {
+    if (!(v >= 0.0f && v <= 1.0f)) {
+      return InvalidArgument("feature set holistic descriptor holds a value outside [0, 1]");
     }
   }
   return Status::Ok();
@@ -105,12 +137,11 @@ StatusOr<FrameScores> ScoreLocations(const FeatureSet& features, const Map& map,
 
 namespace {
 
-// Locations by descending L (lowest index first on ties).
-std::vector<int> RankByLikelihood(const std::vector<float>& likelihood) {
-  std::vector<int> order(likelihood.size());
+// Locations by descending `value` (lowest index first on ties).
+std::vector<int> RankByValue(const std::vector<float>& value) {
+  std::vector<int> order(value.size());
   std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(),
-                   [&](int a, int b) { return likelihood[a] > likelihood[b]; });
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return value[a] > value[b]; });
   return order;
 }
 
@@ -118,80 +149,184 @@ float Ratio(double first, double second) {
   return first + second > 0 ? static_cast<float>(first / (first + second)) : 0.0f;
 }
 
-// What verification found for each location (-1 inliers: not verified).
-struct Evidence {
-  std::vector<int> inliers;
-  std::vector<float> log_scale;
-  std::vector<double> score;  // inliers, weighted by scale agreement
-};
+// The locations to verify: the verify_top best by L, then the holistic_top best by holistic
+// distance that are not already in, each once, in that order.
+std::vector<CandidateEvidence> SelectCandidates(const std::vector<int>& by_likelihood,
+                                                const std::vector<float>& likelihood,
+                                                const std::vector<float>& holistic,
+                                                const MatchOptions& options) {
+  std::vector<int> holistic_rank(likelihood.size(), -1);
+  std::vector<int> by_holistic;
+  if (!holistic.empty()) {
+    std::vector<float> negated(holistic.size());
+    for (size_t l = 0; l < holistic.size(); ++l) negated[l] = -holistic[l];
+    by_holistic = RankByValue(negated);
+    for (size_t r = 0; r < by_holistic.size(); ++r) holistic_rank[by_holistic[r]] = int(r);
+  }
+  float median = 0, spread = 1;
+  if (!holistic.empty()) {
+    std::vector<float> sorted = holistic;
+    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+    median = sorted[sorted.size() / 2];
+    for (float& v : sorted) v = std::abs(v - median);
+    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+    spread = std::max(1e-6f, 1.4826f * sorted[sorted.size() / 2]);
+  }
+  std::vector<CandidateEvidence> out;
+  std::vector<bool> taken(likelihood.size(), false);
+  const auto add = [&](int l) {
+    if (taken[l]) return;
+    taken[l] = true;
+    CandidateEvidence c;
+    c.location = l;
+    c.likelihood = likelihood[l];
+    c.holistic = holistic.empty() ? -1.0f : holistic[l];
+    c.holistic_rank = holistic_rank[l];
+    c.holistic_z = holistic.empty() ? 0.0f : (median - holistic[l]) / spread;
+    out.push_back(c);
+  };
+  const size_t top_l = std::min(by_likelihood.size(), static_cast<size_t>(options.verify_top));
+  for (size_t i = 0; i < top_l; ++i) add(by_likelihood[i]);
+  const size_t top_h = std::min(by_holistic.size(), static_cast<size_t>(options.holistic_top));
+  for (size_t i = 0; i < top_h; ++i) add(by_holistic[i]);
+  return out;
+}
 
-// Verifies the first options.verify_top locations of `order` and re-sorts them by their
-// verified score (stable, so L breaks ties).
-Evidence VerifyAndRerank(const FeatureSet& features, const Map& map, const FrameScores& scores,
-                         const MatchOptions& options, ThreadPool* pool, std::vector<int>* order) {
-  const size_t n = scores.likelihood.size();
-  Evidence e{std::vector<int>(n, -1), std::vector<float>(n, 0.0f), std::vector<double>(n, 0.0)};
-  const size_t verified = std::min(order->size(), static_cast<size_t>(options.verify_top));
-  if (verified == 0) return e;
-  // One task per candidate; each RANSAC is independent.
+// Verifies every candidate (one RANSAC each, spread over the pool).
+void VerifyCandidates(const FeatureSet& features, const Map& map, const FrameScores& scores,
+                      const MatchOptions& options, ThreadPool* pool,
+                      std::vector<CandidateEvidence>* candidates) {
+  VerifyOptions verify_options;
+  verify_options.ransac_threshold_px = options.verify_ransac_threshold * map.frame_long_side();
+  verify_options.max_iterations = options.verify_ransac_iterations;
+  verify_options.angle_tolerance_deg = options.verify_angle_tolerance;
   auto verify = [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) {
-      const int l = (*order)[i];
-      const Verification v =
-          VerifyCandidate(features, map, l, scores.best_score, scores.best_feature,
-                          options.verify_ransac_px, options.verify_ransac_iterations);
-      e.inliers[l] = v.inliers;
-      e.log_scale[l] = v.log_scale;
-      e.score[l] = v.inliers;
-      if (options.verify_scale_sigma > 0) {
-        const double s = options.verify_scale_sigma;
-        e.score[l] *= std::exp(-v.log_scale * v.log_scale / (2 * s * s));
-      }
+      CandidateEvidence& c = (*candidates)[i];
+      const Verification v = VerifyCandidate(features, map, c.location, scores.best_score,
+                                             scores.best_feature, verify_options);
+      c.correspondences = v.correspondences;
+      c.inliers = v.inliers;
+      c.log_scale = v.log_scale;
     }
   };
   if (pool != nullptr) {
-    pool->ParallelFor(verified, 1, verify);
+    pool->ParallelFor(candidates->size(), 1, verify);
   } else {
-    verify(0, verified);
+    verify(0, candidates->size());
   }
-  std::stable_sort(order->begin(), order->begin() + static_cast<std::ptrdiff_t>(verified),
-                   [&](int a, int b) { return e.score[a] > e.score[b]; });
-  return e;
 }
 
-}  // namespace
+// The score candidates are ranked by. Geometric evidence is the epipolar inlier count
+// weighted by scale agreement; only what exceeds the count a wrong candidate reaches by
+// chance counts, so where local features fail (night, blur) the holistic evidence decides,
+// and where they work a clear geometric match overrides a look-alike.
+double FuseEvidence(const CandidateEvidence& c, const MatchOptions& options) {
+  double verified = c.inliers;
+  if (options.verify_scale_sigma > 0) {
+    const double s = options.verify_scale_sigma;
+    verified *= std::exp(-c.log_scale * c.log_scale / (2 * s * s));
+  }
+  if (c.holistic < 0) return verified;  // no holistic evidence: the inliers rank alone
+  return c.holistic_z +
+         options.verify_weight * std::max(0.0, verified - options.verify_chance_inliers);
+}
 
-StatusOr<LocaliseResult> Localise(const FeatureSet& features, const Map& map,
-                                  const MatchOptions& options, ThreadPool* pool) {
+// Brings a feature set extracted in another frame width into the map's: keypoint positions
+// and sizes scale uniformly (descriptors are scale-invariant).
+FeatureSet ScaledToMapFrame(const FeatureSet& features, const Map& map) {
+  FeatureSet scaled = features;
+  const float s = static_cast<float>(map.image_width) / static_cast<float>(features.image_width);
+  for (Keypoint& k : scaled.keypoints) {
+    k.x *= s;
+    k.y *= s;
+    k.size *= s;
+  }
+  scaled.image_width = map.image_width;
+  scaled.image_height = std::max(1, static_cast<int>(std::lround(features.image_height * s)));
+  return scaled;
+}
+
+StatusOr<LocaliseResult> LocaliseInFrame(const FeatureSet& features, const Map& map,
+                                         const MatchOptions& options, ThreadPool* pool) {
   Stopwatch total;
   LocaliseResult result;
   SCENELOC_ASSIGN_OR_RETURN(const FrameScores scores,
                             ScoreLocations(features, map, options, pool, &result));
   const std::vector<float>& likelihood = scores.likelihood;
   Stopwatch stage;
-  std::vector<int> order = RankByLikelihood(likelihood);
+  const std::vector<float> holistic =
+      HolisticDistances(features, map, options.holistic_max_shift, pool);
+  result.timings.holistic_ms = stage.Milliseconds();
+
+  stage.Reset();
+  const std::vector<int> by_likelihood = RankByValue(likelihood);
+  std::vector<CandidateEvidence> candidates =
+      SelectCandidates(by_likelihood, likelihood, holistic, options);
   result.timings.likelihood_ms += stage.Milliseconds();
 
   stage.Reset();
-  const Evidence evidence = VerifyAndRerank(features, map, scores, options, pool, &order);
+  VerifyCandidates(features, map, scores, options, pool, &candidates);
+  for (CandidateEvidence& c : candidates) c.score = FuseEvidence(c, options);
+  // Verified candidates first by fused score (L breaks ties), then the rest by L.
+  std::stable_sort(candidates.begin(), candidates.end(),
+                   [](const CandidateEvidence& a, const CandidateEvidence& b) {
+                     return a.score > b.score ||
+                            (a.score == b.score && a.likelihood > b.likelihood);
+                   });
   result.timings.verify_ms = stage.Milliseconds();
 
+  std::vector<int> order;
+  std::vector<bool> placed(likelihood.size(), false);
+  for (const CandidateEvidence& c : candidates) {
+    order.push_back(c.location);
+    placed[c.location] = true;
+  }
+  for (int l : by_likelihood) {
+    if (!placed[l]) order.push_back(l);
+  }
+  std::vector<const CandidateEvidence*> evidence_of(likelihood.size(), nullptr);
+  for (const CandidateEvidence& c : candidates) evidence_of[c.location] = &c;
   const size_t k = std::min(order.size(), static_cast<size_t>(options.top_k));
   for (size_t i = 0; i < k; ++i) {
     const int l = order[i];
+    const CandidateEvidence* e = evidence_of[l];
     result.ranked.push_back(
-        {l, map.image_names[l], likelihood[l], evidence.inliers[l], evidence.log_scale[l]});
+        {l, map.image_names[l], likelihood[l], e ? e->inliers : -1, e ? e->log_scale : 0.0f});
   }
   if (order.size() >= 2) {
-    // Verified scores decide when the best candidate has any geometric support; with none
-    // (e.g. too few correspondences), the ranking and its confidence are L's.
-    const double s1 = evidence.score[order[0]], s2 = evidence.score[order[1]];
+    // Fused scores decide when the best candidate has any support; with none (e.g. too
+    // few correspondences), the ranking and its confidence are L's.
+    const double s1 = candidates.size() > 0 ? candidates[0].score : 0;
+    const double s2 = candidates.size() > 1 ? candidates[1].score : 0;
     result.confidence = s1 > 0 ? Ratio(s1, s2) : Ratio(likelihood[order[0]], likelihood[order[1]]);
   } else if (!order.empty() && likelihood[order[0]] > 0) {
     result.confidence = 1.0f;
   }
+  result.candidates = std::move(candidates);
   result.timings.total_ms = total.Milliseconds();
   return result;
+}
+
+}  // namespace
+
+StatusOr<LocaliseResult> Localise(const FeatureSet& features, const Map& map,
+                                  const MatchOptions& options, ThreadPool* pool) {
+  SCENELOC_RETURN_IF_ERROR(ValidateFeatureSet(features));
+  if (!features.holistic.empty() && map.has_holistic() &&
+      features.holistic_grid != map.holistic_grid) {
+    const HolisticGrid& q = features.holistic_grid;
+    const HolisticGrid& m = map.holistic_grid;
+    return InvalidArgument("the feature set's holistic descriptor is on a " +
+                           std::to_string(q.cols) + "x" + std::to_string(q.rows) + "x" +
+                           std::to_string(q.bins) + " grid, the map's on " +
+                           std::to_string(m.cols) + "x" + std::to_string(m.rows) + "x" +
+                           std::to_string(m.bins) + ": extract with the map's settings");
+  }
+  if (features.image_width == map.image_width) {
+    return LocaliseInFrame(features, map, options, pool);
+  }
+  return LocaliseInFrame(ScaledToMapFrame(features, map), map, options, pool);
 }
 
 }  // namespace sceneloc

@@ -6,9 +6,12 @@
 //   S_N  neighbourhood similarity with S_A               (neighbourhood.h, eq. 2)
 //   S    = S_D * S_N
 //   L(l) = sum_{g in G_l} max_f S(f, g) / |G_l|          (eq. 3)
-//   the verify_top best locations re-ranked by epipolar inliers weighted by keypoint-scale
-//   agreement (verification.h; our departure, verify_top = 0 turns it off)
-//   confidence = L1 / (L1 + L2), or the same ratio of the two best verified scores
+//   candidates: the verify_top best locations by L, and the holistic_top tour images the
+//   query looks most like as a whole (holistic_similarity.h; our departure)
+//   each candidate verified: epipolar inliers weighted by keypoint-scale agreement
+//   (verification.h; our departure, verify_top = holistic_top = 0 turns it off)
+//   candidates ranked by their fused evidence (FuseEvidence)
+//   confidence = L1 / (L1 + L2), or the same ratio of the two best fused scores
 #pragma once
 
 #include <string>
@@ -42,14 +45,29 @@ struct MatchOptions {
   // number of epipolar inliers between the query and the landmarks' positions in each
   // candidate, ties broken by L. 0 ranks by L alone (paper). Default by measurement.
   int verify_top = 10;
-  // RANSAC inlier threshold for that verification, pixels in the extraction frame.
-  double verify_ransac_px = 3.0;
+  // Also verify this many tour images with the smallest holistic distance (0 = none; no
+  // effect on maps or queries without holistic descriptors).
+  int holistic_top = 10;
+  // Lateral tolerance of the holistic comparison, in grid cells (2 of 16 = 1/8 of the width).
+  int holistic_max_shift = 2;
+  // RANSAC inlier threshold for that verification, as a fraction of the map frame's long
+  // side (0.00625 = 3 px at 480).
+  double verify_ransac_threshold = 0.00625;
   // RANSAC iterations per verified candidate at most (its cost grows linearly with this).
   int verify_ransac_iterations = 200;
+  // Orientation check of verification (verification.h): correspondences whose keypoint
+  // orientations differ by more than this many degrees are dropped (0 = none).
+  double verify_angle_tolerance = 30;
   // Scale agreement: a verified candidate's inlier count is weighted by
   // exp(-m^2 / (2 s^2)), m the median log ratio of query to tour keypoint size over its
   // inliers, s this setting (e.g. 0.2 ~ sizes within about 20%). 0 turns it off.
   double verify_scale_sigma = 0.15;
+  // Fusion of the evidence (FuseEvidence in localiser.cc): a candidate's score is its
+  // holistic z-score plus verify_weight for every scale-weighted inlier above
+  // verify_chance_inliers, the count a wrong candidate reaches by chance. Without holistic
+  // descriptors the inliers alone rank.
+  double verify_chance_inliers = 8;
+  double verify_weight = 0.2;
   // How many ranked locations a result carries.
   int top_k = 5;
 
@@ -68,8 +86,24 @@ struct StageTimings {
   double descriptor_ms = 0;     // S_D over all pairs
   double neighbourhood_ms = 0;  // S_N over the surviving pairs
   double likelihood_ms = 0;     // L(l) and ranking
+  double holistic_ms = 0;       // holistic distances to every tour image
   double verify_ms = 0;         // geometric verification of the best candidates
   double total_ms = 0;
+};
+
+// Everything known about one verified candidate location.
+struct CandidateEvidence {
+  int location = 0;
+  float likelihood = 0;    // L(l), eq. 3
+  float holistic = -1;     // holistic distance to tour image l; -1 without descriptors
+  int holistic_rank = -1;  // its rank among all tour images by that distance (0 = best)
+  // How far below the typical distance it lies: (median - d) / (1.4826 MAD) over all tour
+  // images, a robust z-score; 0 without descriptors.
+  float holistic_z = 0;
+  int correspondences = 0;  // query features matched to landmarks seen in l
+  int inliers = 0;          // of those, epipolar inliers
+  float log_scale = 0;      // median log(query / tour keypoint size) of the inliers
+  double score = 0;         // the fused evidence the candidates are ranked by
 };
 
 struct LocaliseResult {
@@ -80,6 +114,8 @@ struct LocaliseResult {
   float confidence = 0;
   size_t descriptor_matches = 0;  // pairs with S_D >= s_min
   StageTimings timings;
+  // The verified candidates, best first (the evidence behind the answer).
+  std::vector<CandidateEvidence> candidates;
 };
 
 // Checks a feature set from an untrusted source: consistent counts, finite values,

@@ -5,11 +5,21 @@
 #include <opencv2/calib3d.hpp>
 
 namespace sceneloc {
+namespace {
+
+// |a - b| on the circle, degrees in [0, 180].
+float AngleDifferenceDeg(float a, float b) {
+  const float d = std::fmod(std::fabs(a - b), 360.0f);
+  return d > 180.0f ? 360.0f - d : d;
+}
+
+}  // namespace
 
 Verification VerifyCandidate(const FeatureSet& features, const Map& map, int location,
                              const std::vector<float>& best_score,
-                             const std::vector<int32_t>& best_feature, double ransac_threshold_px,
-                             int max_iterations) {
+                             const std::vector<int32_t>& best_feature,
+                             const VerifyOptions& options) {
+  const bool check_angle = options.angle_tolerance_deg > 0 && !map.observation_angle.empty();
   std::vector<cv::Point2f> query, tour;
   std::vector<float> log_scale;
   for (uint32_t k = map.image_offsets[location]; k < map.image_offsets[location + 1]; ++k) {
@@ -18,6 +28,10 @@ Verification VerifyCandidate(const FeatureSet& features, const Map& map, int loc
     for (uint32_t o = map.observation_offsets[g]; o < map.observation_offsets[g + 1]; ++o) {
       if (map.observation_image[o] != static_cast<uint32_t>(location)) continue;
       const Keypoint& kp = features.keypoints[static_cast<size_t>(best_feature[g])];
+      if (check_angle &&
+          AngleDifferenceDeg(kp.angle, map.observation_angle[o]) > options.angle_tolerance_deg) {
+        break;
+      }
       query.emplace_back(kp.x, kp.y);
       tour.emplace_back(map.observation_x[o], map.observation_y[o]);
       log_scale.push_back(std::log(std::max(kp.size, 1e-3f) / map.observation_size[o]));
@@ -25,13 +39,15 @@ Verification VerifyCandidate(const FeatureSet& features, const Map& map, int loc
     }
   }
   Verification v;
+  v.correspondences = static_cast<int>(query.size());
   if (query.size() < 8) return v;
   cv::Mat inliers;
   try {
     // A fixed RNG state keeps answers repeatable: OpenCV's RANSAC draws from theRNG().
     cv::theRNG().state = 0x12345678;
-    const cv::Mat f = cv::findFundamentalMat(query, tour, cv::FM_RANSAC, ransac_threshold_px, 0.99,
-                                             max_iterations, inliers);
+    const cv::Mat f =
+        cv::findFundamentalMat(query, tour, cv::FM_RANSAC, options.ransac_threshold_px, 0.99,
+                               options.max_iterations, inliers);
     if (f.empty() || inliers.empty()) return v;
   } catch (const cv::Exception&) {
     return v;  // degenerate point sets: no geometric support

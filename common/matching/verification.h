@@ -17,15 +17,25 @@
 namespace sceneloc {
 
 struct Verification {
-  int inliers = 0;      // epipolar inliers; 0 with fewer than 8 correspondences
-  float log_scale = 0;  // median log(query size / tour size) over the inliers
+  int correspondences = 0;  // matched landmarks of the candidate seen in its image
+  int inliers = 0;          // epipolar inliers; 0 with fewer than 8 correspondences
+  float log_scale = 0;      // median log(query size / tour size) over the inliers
+};
+
+struct VerifyOptions {
+  double ransac_threshold_px = 3.0;  // epipolar inlier distance, pixels of the map frame
+  int max_iterations = 200;          // RANSAC iterations at most
+  // A correspondence whose query and tour keypoint orientations differ by more than this is
+  // dropped before RANSAC (an upright camera does not roll between visits, so a true match
+  // keeps its orientation). 0 = no orientation check; maps without orientations have none.
+  double angle_tolerance_deg = 0;
 };
 
 // best_score[g] and best_feature[g] are max_f S(f, g) and its argmax (-1 when g matched
-// nothing). RANSAC stops after max_iterations. Deterministic for the same input.
+// nothing). Deterministic for the same input.
 Verification VerifyCandidate(const FeatureSet& features, const Map& map, int location,
                              const std::vector<float>& best_score,
-                             const std::vector<int32_t>& best_feature, double ransac_threshold_px,
-                             int max_iterations);
+                             const std::vector<int32_t>& best_feature,
+                             const VerifyOptions& options);
 
 }  // namespace sceneloc

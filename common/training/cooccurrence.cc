@@ -59,7 +59,8 @@ Neighbour MakeNeighbour(const Map& map, const TrainOptions& options, uint32_t g,
     n.distance_dmax = std::max(n.distance_dmax, std::abs(dd));
     n.angle_dmax = std::max(n.angle_dmax, std::abs(da));
   }
-  n.distance_var = std::max(var_d / count, static_cast<float>(options.distance_var_floor));
+  const double sd_floor_px = options.distance_sd_floor * map.frame_long_side();
+  n.distance_var = std::max(var_d / count, static_cast<float>(sd_floor_px * sd_floor_px));
   n.angle_var = std::max(var_a / count, static_cast<float>(options.angle_var_floor));
   return n;
 }

@@ -82,6 +82,7 @@ void FuseLandmarks(const std::vector<Track>& tracks, const std::vector<FeatureSe
   map->observation_x.clear();
   map->observation_y.clear();
   map->observation_size.clear();
+  map->observation_angle.clear();
   for (size_t t = 0; t < tracks.size(); ++t) {
     FuseOne(tracks[t], tour, options, static_cast<int>(t), map);
     double sx = 0, sy = 0;
@@ -91,6 +92,7 @@ void FuseLandmarks(const std::vector<Track>& tracks, const std::vector<FeatureSe
       map->observation_x.push_back(k.x);
       map->observation_y.push_back(k.y);
       map->observation_size.push_back(k.size);
+      map->observation_angle.push_back(k.angle);
       sx += k.x;
       sy += k.y;
     }

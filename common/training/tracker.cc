@@ -60,7 +60,8 @@ std::vector<int> LinkImagePair(const FeatureSet& a, const FeatureSet& b,
     return next;
   }
   cv::Mat inliers;
-  const cv::Mat f = cv::findFundamentalMat(pa, pb, cv::FM_RANSAC, options.ransac_threshold_px,
+  const double threshold_px = options.ransac_threshold * std::max(a.image_width, a.image_height);
+  const cv::Mat f = cv::findFundamentalMat(pa, pb, cv::FM_RANSAC, threshold_px,
                                            options.ransac_confidence, inliers);
   if (f.empty() || inliers.empty()) {
     ++stats->pairs_unverified;

@@ -35,6 +35,8 @@ Map SubsetLandmarks(const Map& all, const std::vector<uint32_t>& keep) {
   out.image_names = all.image_names;
   out.image_width = all.image_width;
   out.image_height = all.image_height;
+  out.holistic_grid = all.holistic_grid;
+  out.holistic = all.holistic;
   const auto n = static_cast<Eigen::Index>(keep.size());
   out.local_mean.resize(n, kDescriptorSize);
   out.context_mean.resize(n, kDescriptorSize);
@@ -57,10 +59,39 @@ Map SubsetLandmarks(const Map& all, const std::vector<uint32_t>& keep) {
       out.observation_x.push_back(all.observation_x[o]);
       out.observation_y.push_back(all.observation_y[o]);
       out.observation_size.push_back(all.observation_size[o]);
+      out.observation_angle.push_back(all.observation_angle[o]);
     }
     out.observation_offsets.push_back(static_cast<uint32_t>(out.observation_image.size()));
   }
   return out;
+}
+
+// Every tour image must be in one frame width (ExtractFolder makes sure of it) and carry a
+// holistic descriptor on one grid, or none at all.
+Status CheckFrames(const std::vector<FeatureSet>& tour) {
+  for (size_t i = 1; i < tour.size(); ++i) {
+    if (tour[i].image_width != tour[0].image_width) {
+      return InvalidArgument("tour image " + std::to_string(i) + " was extracted " +
+                             std::to_string(tour[i].image_width) + " pixels wide, the first " +
+                             std::to_string(tour[0].image_width));
+    }
+    if (tour[i].holistic_grid != tour[0].holistic_grid ||
+        tour[i].holistic.size() != static_cast<size_t>(tour[i].holistic_grid.size())) {
+      return InvalidArgument("tour image " + std::to_string(i) +
+                             " has a holistic descriptor unlike the first image's");
+    }
+  }
+  return Status::Ok();
+}
+
+// The tour's holistic descriptors, image after image, into the map.
+void CopyHolistic(const std::vector<FeatureSet>& tour, Map* map) {
+  map->holistic_grid = tour.front().holistic_grid;
+  map->holistic.clear();
+  if (map->holistic_grid.empty()) return;
+  map->holistic.reserve(tour.size() * static_cast<size_t>(map->holistic_grid.size()));
+  for (const FeatureSet& f : tour)
+    map->holistic.insert(map->holistic.end(), f.holistic.begin(), f.holistic.end());
 }
 
 // Drops tracks shorter than `min_length`; with min_length 1, adds every feature that no
@@ -87,6 +118,39 @@ std::vector<Track> ApplyMinTrackLength(std::vector<Track> tracks,
   return tracks;
 }
 
+// Coverage: every tour image with fewer than `min_per_image` candidates gets single-view
+// candidates from its untracked features, strongest response first, until it has that many
+// (or runs out of features).
+size_t AddCoverageTracks(const std::vector<FeatureSet>& tour, int min_per_image,
+                         std::vector<Track>* tracks) {
+  if (min_per_image <= 0) return 0;
+  std::vector<std::vector<bool>> tracked(tour.size());
+  std::vector<int> count(tour.size(), 0);
+  for (size_t i = 0; i < tour.size(); ++i) tracked[i].assign(tour[i].keypoints.size(), false);
+  for (const Track& t : *tracks) {
+    for (const TrackObservation& o : t) {
+      tracked[o.image][o.feature] = true;
+      ++count[o.image];
+    }
+  }
+  size_t added = 0;
+  for (size_t i = 0; i < tour.size(); ++i) {
+    std::vector<uint32_t> free;
+    for (uint32_t f = 0; f < tracked[i].size(); ++f) {
+      if (!tracked[i][f]) free.push_back(f);
+    }
+    const size_t wanted = static_cast<size_t>(std::max(0, min_per_image - count[i]));
+    const size_t take = std::min(wanted, free.size());
+    std::partial_sort(free.begin(), free.begin() + static_cast<std::ptrdiff_t>(take), free.end(),
+                      [&](uint32_t a, uint32_t b) {
+                        return tour[i].keypoints[a].response > tour[i].keypoints[b].response;
+                      });
+    for (size_t k = 0; k < take; ++k) tracks->push_back({{uint32_t(i), free[k]}});
+    added += take;
+  }
+  return added;
+}
+
 void SummariseTracks(const std::vector<Track>& tracks, TrainSummary* s) {
   s->tracks = tracks.size();
   size_t total = 0;
@@ -102,6 +166,7 @@ void SummariseImages(const Map& map, TrainSummary* s) {
   s->landmarks_per_image_min = SIZE_MAX;
   for (int l = 0; l < map.num_images(); ++l) {
     const size_t count = map.image_offsets[l + 1] - map.image_offsets[l];
+    if (count == 0) s->images_without_landmarks.push_back(map.image_names[l]);
     s->landmarks_per_image_min = std::min(s->landmarks_per_image_min, count);
     s->landmarks_per_image_max = std::max(s->landmarks_per_image_max, count);
   }
@@ -111,13 +176,15 @@ void SummariseImages(const Map& map, TrainSummary* s) {
 
 }  // namespace
 
-StatusOr<std::vector<FeatureSet>> ExtractFolder(const std::vector<std::string>& image_paths,
-                                                const ExtractorOptions& options, int threads,
-                                                const ProgressFn& progress) {
+StatusOr<std::vector<FeatureSet>> ExtractImages(const std::vector<std::string>& image_paths,
+                                                const ExtractorOptions& options,
+                                                const TargetFn& target, int threads,
+                                                const ProgressFn& progress, size_t* mixed_sizes) {
   SCENELOC_RETURN_IF_ERROR(options.Validate());
   const auto extractor = FeatureExtractor::Create(options);
   std::vector<FeatureSet> features(image_paths.size());
   std::vector<Status> errors(image_paths.size());
+  std::vector<cv::Size> sizes(image_paths.size());
   std::atomic<size_t> done{0};
   std::mutex progress_mutex;
   ThreadPool pool(threads);
@@ -128,7 +195,8 @@ StatusOr<std::vector<FeatureSet>> ExtractFolder(const std::vector<std::string>& 
         errors[i] = image.status();
         continue;
       }
-      auto set = extractor->Extract(*image);
+      sizes[i] = image->size();
+      auto set = extractor->Extract(*image, target(image->cols, image->rows));
       if (!set.ok()) {
         errors[i] =
             Status(set.status().code(), "'" + image_paths[i] + "': " + set.status().message());
@@ -143,7 +211,25 @@ StatusOr<std::vector<FeatureSet>> ExtractFolder(const std::vector<std::string>& 
     }
   });
   for (const Status& e : errors) SCENELOC_RETURN_IF_ERROR(e);
+  if (mixed_sizes != nullptr) {
+    *mixed_sizes = static_cast<size_t>(
+        std::count_if(sizes.begin(), sizes.end(), [&](cv::Size s) { return s != sizes[0]; }));
+  }
   return features;
+}
+
+StatusOr<std::vector<FeatureSet>> ExtractFolder(const std::vector<std::string>& image_paths,
+                                                const ExtractorOptions& options, int threads,
+                                                const ProgressFn& progress, size_t* mixed_sizes) {
+  SCENELOC_RETURN_IF_ERROR(options.Validate());
+  if (image_paths.empty()) return FailedPrecondition("no tour image to extract");
+  SCENELOC_ASSIGN_OR_RETURN(const cv::Mat first, ReadImageFile(image_paths[0]));
+  const ExtractionTarget frame = TourTarget(first.cols, first.rows, options);
+  const auto target = [&](int width, int height) {
+    if (width == first.cols && height == first.rows) return frame;
+    return QueryTarget(width, height, frame.width, frame.holistic);
+  };
+  return ExtractImages(image_paths, options, target, threads, progress, mixed_sizes);
 }
 
 StatusOr<TrainResult> TrainFromFeatures(const std::vector<FeatureSet>& tour,
@@ -163,11 +249,12 @@ StatusOr<TrainResult> TrainFromFeatures(const std::vector<FeatureSet>& tour,
 
   Stopwatch watch;
   TrackingStats tracking;
-  const std::vector<Track> tracks = ApplyMinTrackLength(
-      BuildTracks(tour, options, &pool, &tracking), tour, options.min_track_length);
+  std::vector<Track> tracks = ApplyMinTrackLength(BuildTracks(tour, options, &pool, &tracking),
+                                                  tour, options.min_track_length);
   s.candidate_links = tracking.candidate_links;
   s.verified_links = tracking.verified_links;
   SummariseTracks(tracks, &s);
+  s.coverage_landmarks = AddCoverageTracks(tour, options.min_landmarks_per_image, &tracks);
   s.track_seconds = watch.Seconds();
   if (progress) progress("track", tour.size() - 1, tour.size() - 1);
   if (tracks.empty()) {
@@ -175,6 +262,7 @@ StatusOr<TrainResult> TrainFromFeatures(const std::vector<FeatureSet>& tour,
         "no feature could be tracked between consecutive tour images; "
         "are the images of one route, in order?");
   }
+  SCENELOC_RETURN_IF_ERROR(CheckFrames(tour));
 
   watch.Reset();
   Map candidates;
@@ -182,6 +270,9 @@ StatusOr<TrainResult> TrainFromFeatures(const std::vector<FeatureSet>& tour,
   candidates.image_names = image_names;
   candidates.image_width = tour.front().image_width;
   candidates.image_height = tour.front().image_height;
+  s.frame_width = candidates.image_width;
+  s.frame_height = candidates.image_height;
+  CopyHolistic(tour, &candidates);
   FuseLandmarks(tracks, tour, options, &candidates);
   BuildImageLists(&candidates);
   candidates.neighbour_offsets.assign(tracks.size() + 1, 0);
@@ -237,14 +328,17 @@ StatusOr<TrainResult> TrainFromFolder(const std::string& tour_dir, const TrainOp
                               std::to_string(paths.size()) + " image; a tour needs at least 2");
   }
   Stopwatch watch;
-  SCENELOC_ASSIGN_OR_RETURN(const std::vector<FeatureSet> tour,
-                            ExtractFolder(paths, options.extractor, threads, progress));
+  size_t mixed_sizes = 0;
+  SCENELOC_ASSIGN_OR_RETURN(
+      const std::vector<FeatureSet> tour,
+      ExtractFolder(paths, options.extractor, threads, progress, &mixed_sizes));
   const double extract_seconds = watch.Seconds();
   std::vector<std::string> names;
   for (const std::string& path : paths) names.push_back(FileName(path));
   SCENELOC_ASSIGN_OR_RETURN(TrainResult result,
                             TrainFromFeatures(tour, names, options, threads, progress));
   result.summary.extract_seconds = extract_seconds;
+  result.summary.mixed_size_images = mixed_sizes;
   result.map.provenance.tour_dir = tour_dir;
   return result;
 }

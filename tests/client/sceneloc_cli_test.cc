@@ -69,14 +69,18 @@ TEST_F(ScenelocCliTest, ErrorReplyExitsOne) {
   EXPECT_NE(run.output.find("NOT_FOUND"), std::string::npos) << run.output;
 }
 
-// extract writes a feature set on the client; localise --features sends it (float32 and
-// uint8) and gets the right location.
+// extract writes a feature set on the client, in the map's frame (--map-file) or in a frame
+// of its own (--working-size); localise --features sends it (float32 and uint8) and gets
+// the right location.
 TEST_F(ScenelocCliTest, ExtractThenLocaliseFeatures) {
   const std::string f32 = (dir_ / "q4.f32.pb").string(), u8 = (dir_ / "q4.u8.pb").string();
-  RunResult run = Sceneloc("extract " + Image(4) + " --out " + f32 + " --image-scale 1");
+  RunResult run =
+      Sceneloc("extract " + Image(4) + " --out " + f32 + " --map-file " + test::TestMapPath());
   ASSERT_EQ(run.status, 0) << run.output;
-  run = Sceneloc("extract " + Image(4) + " --out " + u8 + " --image-scale 1 --uint8");
+  EXPECT_NE(run.output.find("(640x360)"), std::string::npos) << run.output;
+  run = Sceneloc("extract " + Image(4) + " --out " + u8 + " --working-size 480 --uint8");
   ASSERT_EQ(run.status, 0) << run.output;
+  EXPECT_NE(run.output.find("(480x270)"), std::string::npos) << run.output;
   EXPECT_LT(fs::file_size(u8) * 2, fs::file_size(f32));
   run = Sceneloc("localise --features --server " + server_.endpoint + " --map synthetic " + f32 +
                  " " + u8);
@@ -124,7 +128,7 @@ TEST_F(ScenelocCliTest, BenchWritesJsonSummary) {
   EXPECT_LT(json["elapsed_s"].get<double>(), 5.0);
 }
 
-// bench --features extracts on the client (the map's settings: image_scale 1) and sends
+// bench --features extracts on the client (the map's settings and frame) and sends
 // feature sets, which the server answers without errors.
 TEST_F(ScenelocCliTest, BenchSendsFeatureSets) {
   const std::string json_path = (dir_ / "bench.json").string();

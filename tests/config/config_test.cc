@@ -30,12 +30,12 @@ TEST(ConfigTest, RejectsUnknownKeysWrongTypesAndRanges) {
   EXPECT_NE(s.message().find("tracking.distance_threshold must be a number"), std::string::npos);
   s = ParseTrainOptions("selection:\n  eta: 2.5\n", "t", &o);
   EXPECT_NE(s.message().find("selection.eta must be an integer"), std::string::npos);
-  s = ParseTrainOptions("extractor:\n  image_scale: 3\n", "t", &o);
-  EXPECT_NE(s.message().find("extractor.image_scale = 3 is out of range"), std::string::npos);
+  s = ParseTrainOptions("extractor:\n  working_size: 3\n", "t", &o);
+  EXPECT_NE(s.message().find("extractor.working_size = 3 is out of range"), std::string::npos);
   s = ParseTrainOptions("[1, 2]", "t", &o);
   EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
   EXPECT_EQ(o.extractor.max_features, before.extractor.max_features);
-  EXPECT_EQ(o.extractor.image_scale, before.extractor.image_scale);
+  EXPECT_EQ(o.extractor.working_size, before.extractor.working_size);
 }
 
 // Matching settings parse, including booleans.
@@ -53,11 +53,13 @@ TEST(ConfigTest, MatchOptions) {
 TEST(ConfigTest, RoundTripsThroughYaml) {
   TrainOptions o;
   o.eta = 33;
-  o.extractor.image_scale = 0.75;
+  o.extractor.working_size = 640;
+  o.ransac_threshold = 0.005;
   TrainOptions back;
   ASSERT_TRUE(ParseTrainOptions(TrainOptionsToYaml(o), "rt", &back).ok());
   EXPECT_EQ(back.eta, 33);
-  EXPECT_DOUBLE_EQ(back.extractor.image_scale, 0.75);
+  EXPECT_EQ(back.extractor.working_size, 640);
+  EXPECT_DOUBLE_EQ(back.ransac_threshold, 0.005);
 }
 
 // The shipped settings files load and hold the defaults the code documents.

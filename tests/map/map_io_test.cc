@@ -57,20 +57,22 @@ Map MakeMapWithDistinctOptions() {
   Map map = MakeRandomMap(15, 120, 42);
   TrainOptions& o = map.options;
   o.extractor.max_features = 777;
-  o.extractor.image_scale = 0.75;
+  o.extractor.working_size = 481;
   o.extractor.context_scale = 2.5;
   o.extractor.contrast_threshold = 0.031;
   o.extractor.edge_threshold = 11.5;
   o.extractor.sigma = 1.7;
   o.extractor.max_image_side = 4097;
+  o.extractor.holistic.cell_pixels = 7;
   o.track_distance_threshold = 0.55;
-  o.ransac_threshold_px = 2.25;
+  o.ransac_threshold = 0.0047;
   o.ransac_confidence = 0.995;
   o.min_links_per_pair = 13;
   o.min_track_length = 3;
+  o.min_landmarks_per_image = 41;
   o.local_var_floor = 0.021;
   o.context_var_floor = 0.0021;
-  o.distance_var_floor = 101.0;
+  o.distance_sd_floor = 0.043;
   o.angle_var_floor = 0.011;
   o.quality_s_min = 0.31;
   o.quality_fp_prior = 1.1;
@@ -180,7 +182,7 @@ TEST_F(MapIoTest, HeaderMatchesDocumentedLayout) {
   const std::string bytes = SerializeMap(map);
   ASSERT_GT(bytes.size(), kMapHeaderBytes);
   EXPECT_EQ(std::memcmp(bytes.data(), "SCNLMAP\0", 8), 0);
-  EXPECT_EQ(GetU32(bytes, 8), 1u);
+  EXPECT_EQ(GetU32(bytes, 8), kMapFormatVersion);
   EXPECT_EQ(GetU32(bytes, 12), 0u);
   EXPECT_EQ(GetU64(bytes, 16), bytes.size() - kMapHeaderBytes);
   EXPECT_EQ(GetU32(bytes, 24), Crc32(bytes.data() + 32, bytes.size() - 32));
@@ -291,13 +293,13 @@ TEST_F(MapIoTest, WrongMagicIsInvalidArgument) {
 // A file of a newer format version (with a valid header CRC) is Unimplemented and
 // says which versions this build reads.
 TEST_F(MapIoTest, NewerFormatVersionIsUnimplemented) {
-  for (uint32_t version : {2u, 7u}) {
+  for (uint32_t version : {kMapFormatVersion + 1, 77u}) {
     std::string bytes = SerializeMap(MakeRandomMap(4, 10, 3));
     PutU32(&bytes, 8, version);
     Rechecksum(&bytes);
     ExpectLoadFails(bytes, StatusCode::kUnimplemented,
-                    "has format version " + std::to_string(version) +
-                        ", this build reads up to 1; upgrade sceneloc");
+                    "has format version " + std::to_string(version) + ", this build reads up to " +
+                        std::to_string(kMapFormatVersion) + "; upgrade sceneloc");
   }
 }
 

@@ -33,7 +33,7 @@ void TrainTestMap(const std::string& path) {
   Status written = WriteTour(TestTour(), tour_dir.string(), kTrainingPass);
   if (!written.ok()) std::abort();
   TrainOptions options;
-  options.extractor.image_scale = 1.0;  // the generated frames are already small
+  options.extractor.working_size = 640;  // the generated frames are already small
   auto trained = TrainFromFolder(tour_dir.string(), options, 2, nullptr);
   fs::remove_all(tour_dir);
   if (!trained.ok() || !SaveMap(trained->map, path).ok()) {
@@ -80,7 +80,8 @@ const FeatureSet& TourFeatures(int i) {
     auto map = LoadMap(TestMapPath());
     auto image = DecodeImage(TourJpegs().at(static_cast<size_t>(i)), 4096);
     if (!map.ok() || !image.ok()) std::abort();
-    auto features = FeatureExtractor::Create(map->options.extractor)->Extract(*image);
+    auto features = FeatureExtractor::Create(map->options.extractor)
+                        ->Extract(*image, map->QueryTarget(image->cols, image->rows));
     if (!features.ok()) std::abort();
     slot = std::make_unique<FeatureSet>(std::move(features).value());
   }

@@ -64,6 +64,7 @@ void FillObservations(std::mt19937& rng, Map* map) {
       map->observation_x.push_back(x + Uniform(rng, -3.0f, 3.0f));
       map->observation_y.push_back(y + Uniform(rng, -3.0f, 3.0f));
       map->observation_size.push_back(Uniform(rng, 2.0f, 20.0f));
+      map->observation_angle.push_back(Uniform(rng, 0.0f, 360.0f));
       sum_x += map->observation_x.back();
       sum_y += map->observation_y.back();
     }
@@ -154,12 +155,21 @@ void FillHeader(int num_images, uint32_t seed, Map* map) {
   map->image_height = kHeight;
 }
 
+// A holistic descriptor per tour image on the default grid of the frame.
+void FillHolistic(std::mt19937& rng, Map* map) {
+  map->holistic_grid = GridForFrame(kWidth, kHeight, map->options.extractor.holistic);
+  for (int i = 0; i < map->num_images() * map->holistic_grid.size(); ++i) {
+    map->holistic.push_back(Uniform(rng, 0.0f, 0.45f));
+  }
+}
+
 }  // namespace
 
 Map MakeRandomMap(int num_images, int num_landmarks, uint32_t seed) {
   std::mt19937 rng(seed);
   Map map;
   FillHeader(num_images, seed, &map);
+  FillHolistic(rng, &map);
   map.local_mean.resize(num_landmarks, kDescriptorSize);
   map.context_mean.resize(num_landmarks, kDescriptorSize);
   FillDescriptors(rng, &map);
@@ -181,19 +191,24 @@ namespace {
 
 void ExpectOptionsEqual(const TrainOptions& a, const TrainOptions& b) {
   EXPECT_EQ(a.extractor.max_features, b.extractor.max_features);
-  EXPECT_EQ(a.extractor.image_scale, b.extractor.image_scale);
+  EXPECT_EQ(a.extractor.working_size, b.extractor.working_size);
   EXPECT_EQ(a.extractor.context_scale, b.extractor.context_scale);
   EXPECT_EQ(a.extractor.contrast_threshold, b.extractor.contrast_threshold);
   EXPECT_EQ(a.extractor.edge_threshold, b.extractor.edge_threshold);
   EXPECT_EQ(a.extractor.sigma, b.extractor.sigma);
   EXPECT_EQ(a.extractor.max_image_side, b.extractor.max_image_side);
+  EXPECT_EQ(a.extractor.holistic.cols, b.extractor.holistic.cols);
+  EXPECT_EQ(a.extractor.holistic.cell_pixels, b.extractor.holistic.cell_pixels);
+  EXPECT_EQ(a.extractor.holistic.bins, b.extractor.holistic.bins);
   EXPECT_EQ(a.track_distance_threshold, b.track_distance_threshold);
-  EXPECT_EQ(a.ransac_threshold_px, b.ransac_threshold_px);
+  EXPECT_EQ(a.ransac_threshold, b.ransac_threshold);
   EXPECT_EQ(a.ransac_confidence, b.ransac_confidence);
   EXPECT_EQ(a.min_links_per_pair, b.min_links_per_pair);
+  EXPECT_EQ(a.min_track_length, b.min_track_length);
+  EXPECT_EQ(a.min_landmarks_per_image, b.min_landmarks_per_image);
   EXPECT_EQ(a.local_var_floor, b.local_var_floor);
   EXPECT_EQ(a.context_var_floor, b.context_var_floor);
-  EXPECT_EQ(a.distance_var_floor, b.distance_var_floor);
+  EXPECT_EQ(a.distance_sd_floor, b.distance_sd_floor);
   EXPECT_EQ(a.angle_var_floor, b.angle_var_floor);
   EXPECT_EQ(a.quality_s_min, b.quality_s_min);
   EXPECT_EQ(a.quality_fp_prior, b.quality_fp_prior);
@@ -230,6 +245,8 @@ void ExpectMapsEqual(const Map& a, const Map& b) {
   EXPECT_EQ(a.image_names, b.image_names);
   EXPECT_EQ(a.image_width, b.image_width);
   EXPECT_EQ(a.image_height, b.image_height);
+  EXPECT_TRUE(a.holistic_grid == b.holistic_grid);
+  ExpectArraysEqual("holistic", a.holistic, b.holistic);
   ExpectMatricesEqual("local_mean", a.local_mean, b.local_mean);
   ExpectArraysEqual("local_dmax", a.local_dmax, b.local_dmax);
   ExpectArraysEqual("local_var", a.local_var, b.local_var);
@@ -244,6 +261,7 @@ void ExpectMapsEqual(const Map& a, const Map& b) {
   ExpectArraysEqual("observation_x", a.observation_x, b.observation_x);
   ExpectArraysEqual("observation_y", a.observation_y, b.observation_y);
   ExpectArraysEqual("observation_size", a.observation_size, b.observation_size);
+  ExpectArraysEqual("observation_angle", a.observation_angle, b.observation_angle);
   ExpectArraysEqual("neighbour_offsets", a.neighbour_offsets, b.neighbour_offsets);
   ExpectArraysEqual("neighbours", a.neighbours, b.neighbours);
   ExpectArraysEqual("image_offsets", a.image_offsets, b.image_offsets);

@@ -127,17 +127,17 @@ TEST_F(CliTest, BadSettingsFiles) {
 
 // sceneloc-eval on a map of another format version and on a non-map file.
 TEST_F(CliTest, EvalRefusesBadMaps) {
-  const std::string map = (dir_ / "v2.scnl").string();
+  const std::string map = (dir_ / "v99.scnl").string();
   ASSERT_EQ(RunCommand(Train((dir_ / "tour").string(), map)).exit_code, 0);
   {
     std::fstream f(map, std::ios::in | std::ios::out | std::ios::binary);
     f.seekp(8);
-    const uint32_t version = 2;
+    const uint32_t version = 99;
     f.write(reinterpret_cast<const char*>(&version), 4);
   }
   const std::string eval =
       std::string(SCENELOC_EVAL_BIN) + " --queries '" + (dir_ / "test").string() + "' --map ";
-  ExpectOneLineError(RunCommand(eval + "'" + map + "'"), {"v2.scnl", "format version 2"});
+  ExpectOneLineError(RunCommand(eval + "'" + map + "'"), {"v99.scnl", "format version 99"});
   ExpectOneLineError(RunCommand(eval + "'" + (dir_ / "tour" / "Image000.jpg").string() + "'"),
                      {"Image000.jpg", "not a sceneloc map"});
 }

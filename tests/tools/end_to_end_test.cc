@@ -33,7 +33,7 @@ class EndToEndTest : public ::testing::Test {
 // most test frames land within one frame of their true location.
 TEST_F(EndToEndTest, TrainSaveLoadLocalise) {
   TrainOptions options;
-  options.extractor.image_scale = 1.0;  // the generated frames are already small
+  options.extractor.working_size = 640;  // the generated frames are already small
   auto trained = TrainFromFolder((dir_ / "tour").string(), options, 2, nullptr);
   ASSERT_TRUE(trained.ok()) << trained.status().ToString();
   EXPECT_EQ(trained->summary.images, 30u);
@@ -55,7 +55,7 @@ TEST_F(EndToEndTest, TrainSaveLoadLocalise) {
   for (int i = 0; i < tour_.num_locations; ++i) {
     auto image = DecodeImage((*test_pass)[i], 4096);
     ASSERT_TRUE(image.ok());
-    auto features = extractor->Extract(*image);
+    auto features = extractor->Extract(*image, map->QueryTarget(image->cols, image->rows));
     ASSERT_TRUE(features.ok());
     auto result = Localise(*features, *map, MatchOptions(), &pool);
     ASSERT_TRUE(result.ok());
@@ -75,7 +75,7 @@ TEST_F(EndToEndTest, TrainSaveLoadLocalise) {
 // deterministic, whatever the thread count).
 TEST_F(EndToEndTest, TrainingIsDeterministic) {
   TrainOptions options;
-  options.extractor.image_scale = 1.0;
+  options.extractor.working_size = 640;
   auto a = TrainFromFolder((dir_ / "tour").string(), options, 1, nullptr);
   auto b = TrainFromFolder((dir_ / "tour").string(), options, 2, nullptr);
   ASSERT_TRUE(a.ok() && b.ok());

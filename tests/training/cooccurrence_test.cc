@@ -10,10 +10,13 @@ namespace {
 // Two landmarks: g0 in images 0,1,2 and g1 in images 1,2. Offsets g0 -> g1: (10, 0) in
 // image 1 and (0, 12) in image 2. So p(g1|g0) = 2/3, p(g0|g1) = 1, distances 10 and 12
 // (mean 11, variance 1 -> floored, d_max 1), angles 0 and pi/2 (circular mean pi/4,
-// d_max pi/4, variance (pi/4)^2).
+// d_max pi/4, variance (pi/4)^2). The frame is 200 pixels on its long side, so a distance
+// sd floor of 0.01 is 2 pixels (variance 4).
 TEST(CooccurrenceTest, HandComputedStatistics) {
   Map map;
   map.image_names = {"a", "b", "c"};
+  map.image_width = 200;
+  map.image_height = 100;
   map.local_mean.setZero(2, kDescriptorSize);
   map.mean_x = {0, 5};
   map.mean_y = {0, 6};
@@ -22,7 +25,7 @@ TEST(CooccurrenceTest, HandComputedStatistics) {
   map.observation_x = {0, 0, 0, 10, 0};
   map.observation_y = {0, 0, 0, 0, 12};
   TrainOptions options;
-  options.distance_var_floor = 4.0;
+  options.distance_sd_floor = 0.01;
   options.angle_var_floor = 0.01;
   BuildNeighbours(options, &map);
   EXPECT_EQ(map.image_offsets, (std::vector<uint32_t>{0, 1, 3, 5}));

@@ -127,6 +127,7 @@ Status RunQueries(const std::vector<FeatureSet>& queries, const Map& map,
     o.confidence = r.confidence;
     o.descriptor_matches = r.descriptor_matches;
     o.stages = r.timings;
+    o.candidates = r.candidates;
   }
   if (baseline_tour == nullptr) return Status::Ok();
   SCENELOC_ASSIGN_OR_RETURN(auto baseline, VotingBaseline::Build(*baseline_tour, {}));

@@ -34,7 +34,8 @@ struct QueryOutcome {
   double extract_ms = 0;
   double match_ms = 0;
   size_t descriptor_matches = 0;
-  StageTimings stages;  // ours, per matching stage
+  StageTimings stages;                        // ours, per matching stage
+  std::vector<CandidateEvidence> candidates;  // ours, the verified candidates
   int baseline_predicted = -1;
   float baseline_confidence = 0;
   double baseline_ms = 0;

@@ -12,15 +12,20 @@
 namespace sceneloc {
 namespace {
 
-constexpr uint32_t kCacheVersion = 1;
+constexpr uint32_t kCacheVersion = 2;
 
 // Identifies a cache entry: the folder, its files (names and sizes) and the options.
 std::string CacheKey(const std::string& dir, const std::vector<std::string>& paths,
-                     const ExtractorOptions& o) {
+                     const ExtractorOptions& o, const ExtractionTarget* frame) {
   std::ostringstream key;
   key << std::filesystem::absolute(dir).string() << kCacheVersion << o.max_features << ' '
-      << o.image_scale << ' ' << o.context_scale << ' ' << o.contrast_threshold << ' '
-      << o.edge_threshold << ' ' << o.sigma;
+      << o.working_size << ' ' << o.context_scale << ' ' << o.contrast_threshold << ' '
+      << o.edge_threshold << ' ' << o.sigma << ' ' << o.holistic.cols << ' '
+      << o.holistic.cell_pixels << ' ' << o.holistic.bins;
+  if (frame != nullptr) {
+    key << " query " << frame->width << ' ' << frame->holistic.cols << ' ' << frame->holistic.rows
+        << ' ' << frame->holistic.bins;
+  }
   std::error_code ec;
   for (const auto& p : paths) key << p << std::filesystem::file_size(p, ec);
   std::ostringstream name;
@@ -53,6 +58,9 @@ void Write(const std::string& path, const std::vector<FeatureSet>& sets) {
                 static_cast<std::streamsize>(f.local.size() * sizeof(float)));
       out.write(reinterpret_cast<const char*>(f.context.data()),
                 static_cast<std::streamsize>(f.context.size() * sizeof(float)));
+      Put(out, f.holistic_grid);
+      out.write(reinterpret_cast<const char*>(f.holistic.data()),
+                static_cast<std::streamsize>(f.holistic.size() * sizeof(float)));
     }
     if (!out) return;
   }
@@ -81,6 +89,13 @@ bool Read(const std::string& path, size_t expected, std::vector<FeatureSet>* set
             static_cast<std::streamsize>(f.local.size() * sizeof(float)));
     in.read(reinterpret_cast<char*>(f.context.data()),
             static_cast<std::streamsize>(f.context.size() * sizeof(float)));
+    if (!Get(in, &f.holistic_grid) || f.holistic_grid.size() < 0 ||
+        f.holistic_grid.size() > 1000000) {
+      return false;
+    }
+    f.holistic.resize(static_cast<size_t>(f.holistic_grid.size()));
+    in.read(reinterpret_cast<char*>(f.holistic.data()),
+            static_cast<std::streamsize>(f.holistic.size() * sizeof(float)));
     if (!in) return false;
   }
   return true;
@@ -91,7 +106,8 @@ bool Read(const std::string& path, size_t expected, std::vector<FeatureSet>* set
 StatusOr<std::vector<FeatureSet>> ExtractFolderCached(const std::string& dir,
                                                       const ExtractorOptions& options,
                                                       const std::string& cache_dir, int threads,
-                                                      std::vector<std::string>* names) {
+                                                      std::vector<std::string>* names,
+                                                      const ExtractionTarget* map_frame) {
   SCENELOC_ASSIGN_OR_RETURN(const std::vector<std::string> paths, ListImageFiles(dir));
   names->clear();
   for (const auto& p : paths) names->push_back(FileName(p));
@@ -99,12 +115,19 @@ StatusOr<std::vector<FeatureSet>> ExtractFolderCached(const std::string& dir,
   if (!cache_dir.empty()) {
     std::error_code ec;
     std::filesystem::create_directories(cache_dir, ec);
-    entry = cache_dir + "/" + CacheKey(dir, paths, options);
+    entry = cache_dir + "/" + CacheKey(dir, paths, options, map_frame);
     std::vector<FeatureSet> cached;
     if (Read(entry, paths.size(), &cached)) return cached;
   }
-  SCENELOC_ASSIGN_OR_RETURN(std::vector<FeatureSet> sets,
-                            ExtractFolder(paths, options, threads, nullptr));
+  std::vector<FeatureSet> sets;
+  if (map_frame == nullptr) {
+    SCENELOC_ASSIGN_OR_RETURN(sets, ExtractFolder(paths, options, threads, nullptr));
+  } else {
+    const auto target = [&](int width, int height) {
+      return QueryTarget(width, height, map_frame->width, map_frame->holistic);
+    };
+    SCENELOC_ASSIGN_OR_RETURN(sets, ExtractImages(paths, options, target, threads, nullptr));
+  }
   if (!entry.empty()) Write(entry, sets);
   return sets;
 }

@@ -14,11 +14,14 @@
 namespace sceneloc {
 
 // Extracts the features of the images in `dir` with `options`, or reads them from
-// `cache_dir` when an entry made from the same folder listing and options exists. An
-// empty cache_dir disables caching.
+// `cache_dir` when an entry made from the same folder listing, options and frame exists.
+// An empty cache_dir disables caching. Without `map_frame` the folder is a tour (every image
+// in the tour frame of the first, ExtractFolder); with it, a query folder extracted for a
+// map made in that frame (QueryTarget).
 StatusOr<std::vector<FeatureSet>> ExtractFolderCached(const std::string& dir,
                                                       const ExtractorOptions& options,
                                                       const std::string& cache_dir, int threads,
-                                                      std::vector<std::string>* names);
+                                                      std::vector<std::string>* names,
+                                                      const ExtractionTarget* map_frame = nullptr);
 
 }  // namespace sceneloc
