@@ -47,6 +47,7 @@ nlohmann::json ReportJson(const EvalSummary& s, const std::vector<sceneloc::Quer
                     {"descriptor", PercentilesJson(s.descriptor_ms)},
                     {"neighbourhood", PercentilesJson(s.neighbourhood_ms)},
                     {"likelihood", PercentilesJson(s.likelihood_ms)},
+                    {"holistic", PercentilesJson(s.holistic_ms)},
                     {"verify", PercentilesJson(s.verify_ms)},
                     {"map_load", load_ms}};
   j["map_memory_bytes"] = map_memory_bytes;
@@ -54,16 +55,27 @@ nlohmann::json ReportJson(const EvalSummary& s, const std::vector<sceneloc::Quer
     j["baseline"] = {{"match_rate", RatesJson(s.baseline)},
                      {"mean_confidence", s.baseline.mean_confidence},
                      {"timing_ms", {{"match", PercentilesJson(s.baseline.match_ms)}}}};
+    j["baseline_reranked"] = {{"match_rate", RatesJson(s.reranked)},
+                              {"mean_confidence", s.reranked.mean_confidence},
+                              {"timing_ms", {{"match", PercentilesJson(s.reranked.match_ms)}}}};
   }
   j["per_query"] = nlohmann::json::array();
   for (const auto& o : out) {
     nlohmann::json q = {{"query", o.name},
                         {"truth", o.truth},
-                        {"predicted", o.predicted},
-                        {"confidence", o.confidence},
+                        {"predicted", o.ours.predicted},
+                        {"confidence", o.ours.confidence},
                         {"extract_ms", o.extract_ms},
-                        {"match_ms", o.match_ms}};
-    if (s.has_baseline) q["baseline_predicted"] = o.baseline_predicted;
+                        {"match_ms", o.ours.ms}};
+    if (s.has_baseline) {
+      q["baseline_predicted"] = o.baseline.predicted;
+      q["baseline_confidence"] = o.baseline.confidence;
+      q["baseline_reranked_predicted"] = o.reranked.predicted;
+      q["baseline_reranked_confidence"] = o.reranked.confidence;
+    }
+    q["keypoints"] = o.keypoints;
+    q["descriptor_matches"] = o.descriptor_matches;
+    q["location_scores"] = o.location_scores;
     q["candidates"] = nlohmann::json::array();
     for (const sceneloc::CandidateEvidence& c : o.candidates) {
       q["candidates"].push_back({{"location", c.location},
@@ -91,14 +103,14 @@ void PrintMethod(const char* name, const MethodSummary& m, int tolerance) {
 void PrintAnswers(const std::vector<sceneloc::QueryOutcome>& outcomes,
                   const std::vector<std::string>& tour_names, int tolerance) {
   for (const auto& o : outcomes) {
-    if (o.predicted < 0) {
+    if (o.ours.predicted < 0) {
       std::printf("%-16s -> no answer (no landmark matched)\n", o.name.c_str());
       continue;
     }
-    const int off = o.predicted - o.truth;
+    const int off = o.ours.predicted - o.truth;
     std::printf("%-16s -> tour location %3d (%s), confidence %.2f  [truth %d, %s]\n",
-                o.name.c_str(), o.predicted, tour_names[o.predicted].c_str(), o.confidence, o.truth,
-                std::abs(off) <= tolerance ? "ok" : "MISS");
+                o.name.c_str(), o.ours.predicted, tour_names[o.ours.predicted].c_str(),
+                o.ours.confidence, o.truth, std::abs(off) <= tolerance ? "ok" : "MISS");
   }
 }
 
@@ -200,14 +212,17 @@ int main(int argc, char** argv) {
               threads);
   std::printf("method     exact   ±1     ±2     ±3     confidence  match ms (median  p90)\n");
   PrintMethod("sceneloc", s.ours, tolerance);
-  if (with_baseline) PrintMethod("baseline", s.baseline, tolerance);
+  if (with_baseline) {
+    PrintMethod("baseline", s.baseline, tolerance);
+    PrintMethod("+ransac", s.reranked, tolerance);
+  }
   std::printf("extract ms per query: median %.1f, p90 %.1f\n", s.extract_ms.median,
               s.extract_ms.p90);
   std::printf(
       "match stages, median ms: descriptor %.2f, neighbourhood %.2f, likelihood %.2f, "
-      "verify %.2f\n",
+      "holistic %.2f, verify %.2f\n",
       s.descriptor_ms.median, s.neighbourhood_ms.median, s.likelihood_ms.median,
-      s.verify_ms.median);
+      s.holistic_ms.median, s.verify_ms.median);
   if (!json_path.empty()) {
     std::ofstream out(json_path);
     out << ReportJson(s, outcomes, load_ms, map->MemoryBytes()).dump(2) << "\n";

@@ -101,7 +101,8 @@ class CsvWriter {
   explicit CsvWriter(const std::string& path) : out_(path) {
     out_ << "experiment,variant,locations,eta,landmarks,train_s,rate0,rate1,rate2,rate3,"
             "confidence,match_ms_median,match_ms_p90,baseline_rate0,baseline_rate1,"
-            "baseline_rate2,baseline_rate3,baseline_confidence,baseline_ms_median\n";
+            "baseline_rate2,baseline_rate3,baseline_confidence,baseline_ms_median,"
+            "reranked_rate2,reranked_rate3\n";
   }
   bool ok() const { return static_cast<bool>(out_); }
   void Add(const Row& r) {
@@ -110,12 +111,13 @@ class CsvWriter {
     char line[512];
     std::snprintf(line, sizeof(line),
                   "%s,%s,%d,%d,%d,%.1f,%.3f,%.3f,%.3f,%.3f,%.3f,%.2f,%.2f,%.3f,%.3f,%.3f,%.3f,"
-                  "%.3f,%.2f\n",
+                  "%.3f,%.2f,%.3f,%.3f\n",
                   r.experiment.c_str(), r.variant.c_str(), r.locations, r.eta, r.landmarks,
                   r.train_s, o.match_rate[0], o.match_rate[1], o.match_rate[2], o.match_rate[3],
                   o.mean_confidence, o.match_ms.median, o.match_ms.p90, b.match_rate[0],
                   b.match_rate[1], b.match_rate[2], b.match_rate[3], b.mean_confidence,
-                  b.match_ms.median);
+                  b.match_ms.median, r.summary.reranked.match_rate[2],
+                  r.summary.reranked.match_rate[3]);
     out_ << line << std::flush;
     std::printf(
         "%-10s %-28s N=%3d eta=%3d L=%6d  ±0 %.3f ±1 %.3f ±2 %.3f ±3 %.3f conf %.3f "

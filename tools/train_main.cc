@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <thread>
 
@@ -28,23 +29,58 @@ class ProgressPrinter {
 void PrintSummary(const sceneloc::TrainSummary& s, const std::string& out, double seconds,
                   size_t bytes) {
   std::printf("trained %s in %.1f s\n", out.c_str(), seconds);
-  std::printf("  images               %zu\n", s.images);
+  std::printf("  images               %zu, working frame %dx%d\n", s.images, s.frame_width,
+              s.frame_height);
   std::printf("  features             %zu (%.0f per image)\n", s.features,
               static_cast<double>(s.features) / static_cast<double>(s.images));
   std::printf("  links                %zu candidate, %zu verified by RANSAC\n", s.candidate_links,
               s.verified_links);
   std::printf("  tracks (candidates)  %zu, mean length %.2f, max %zu\n", s.tracks,
               s.mean_track_length, s.max_track_length);
+  if (s.coverage_landmarks > 0) {
+    std::printf("  coverage             %zu single-view candidates for images with few tracks\n",
+                s.coverage_landmarks);
+  }
   std::printf("  landmarks kept       %zu of %zu\n", s.landmarks_kept,
               s.landmarks_before_selection);
   std::printf("  landmarks per image  mean %.1f, min %zu, max %zu\n", s.landmarks_per_image_mean,
               s.landmarks_per_image_min, s.landmarks_per_image_max);
+  if (!s.images_without_landmarks.empty()) {
+    std::string names;
+    for (size_t i = 0; i < s.images_without_landmarks.size() && i < 5; ++i) {
+      names += (i ? ", " : "") + s.images_without_landmarks[i];
+    }
+    if (s.images_without_landmarks.size() > 5) names += ", ...";
+    std::printf(
+        "  WARNING              %zu image(s) hold no landmark (%s): only their holistic "
+        "descriptor can answer them\n",
+        s.images_without_landmarks.size(), names.c_str());
+  }
   std::printf("  map file             %.2f MB\n", static_cast<double>(bytes) / 1e6);
   std::printf(
       "  time (s)             extract %.1f, track %.1f, fuse %.1f, quality %.1f, "
       "select %.2f, co-occurrence %.1f\n",
       s.extract_seconds, s.track_seconds, s.fuse_seconds, s.quality_seconds, s.select_seconds,
       s.cooccurrence_seconds);
+}
+
+// Refuses an --out that cannot be written before any work is done: its folder must exist
+// and be writable, and the path must not be a folder itself.
+sceneloc::Status CheckOutput(const std::string& out_path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::is_directory(out_path, ec)) {
+    return sceneloc::InvalidArgument("--out '" + out_path + "' is a folder; name the map file");
+  }
+  fs::path dir = fs::path(out_path).parent_path();
+  if (dir.empty()) dir = ".";
+  if (!fs::is_directory(dir, ec)) {
+    return sceneloc::NotFound("--out: folder '" + dir.string() + "' does not exist");
+  }
+  if (::access(dir.c_str(), W_OK) != 0) {
+    return sceneloc::IoError("--out: folder '" + dir.string() + "' is not writable");
+  }
+  return sceneloc::Status::Ok();
 }
 
 }  // namespace
@@ -71,6 +107,10 @@ int main(int argc, char** argv) {
     }
   }
   if (eta >= 0) options.eta = eta;
+  if (const sceneloc::Status s = CheckOutput(out_path); !s.ok()) {
+    std::fprintf(stderr, "sceneloc-train: %s\n", s.message().c_str());
+    return 2;
+  }
   sceneloc::Stopwatch watch;
   ProgressPrinter progress;
   auto result = sceneloc::TrainFromFolder(tour_dir, options, threads, std::ref(progress));
@@ -83,6 +123,12 @@ int main(int argc, char** argv) {
   if (!saved.ok()) {
     std::fprintf(stderr, "sceneloc-train: %s\n", saved.message().c_str());
     return 1;
+  }
+  if (result->summary.mixed_size_images > 0) {
+    std::fprintf(stderr,
+                 "sceneloc-train: warning: %zu of %zu tour images differ in size from the first; "
+                 "each was brought into the first image's working frame\n",
+                 result->summary.mixed_size_images, result->summary.images);
   }
   PrintSummary(result->summary, out_path, watch.Seconds(), bytes.size());
   return 0;

@@ -20,6 +20,9 @@ Status ExtractorOptions::Validate() const {
   if (!(contrast_threshold > 0.0)) return InvalidArgument("contrast_threshold must be > 0");
   if (!(edge_threshold > 0.0)) return InvalidArgument("edge_threshold must be > 0");
   if (!(sigma > 0.0)) return InvalidArgument("sigma must be > 0");
+  if (!(clahe_clip >= 0.0 && clahe_clip <= 100.0)) {
+    return InvalidArgument("clahe_clip must be in [0, 100]");
+  }
   if (max_image_side < kMinImageSide) return InvalidArgument("max_image_side must be >= 16");
   SCENELOC_RETURN_IF_ERROR(holistic.Validate());
   return Status::Ok();
@@ -56,6 +59,15 @@ void NormaliseRows(DescriptorMatrix* m) {
   for (Eigen::Index i = 0; i < m->rows(); ++i) {
     const float norm = m->row(i).norm();
     if (norm > 0) m->row(i) /= norm;
+  }
+}
+
+// RootSIFT (Arandjelovic & Zisserman 2012): each row L1-normalised and square-rooted, so
+// that Euclidean distance compares descriptors by the Hellinger kernel. Rows stay unit L2.
+void RootRows(DescriptorMatrix* m) {
+  for (Eigen::Index i = 0; i < m->rows(); ++i) {
+    const float l1 = m->row(i).cwiseAbs().sum();
+    if (l1 > 0) m->row(i) = (m->row(i).cwiseAbs() / l1).cwiseSqrt();
   }
 }
 
@@ -102,6 +114,12 @@ class SiftExtractor final : public FeatureExtractor {
                  shrink ? cv::INTER_AREA : cv::INTER_LINEAR);
       gray = scaled;
     }
+    const cv::Mat holistic_source = gray;
+    if (options_.clahe_clip > 0) {
+      cv::Mat equalised;
+      cv::createCLAHE(options_.clahe_clip, cv::Size(8, 8))->apply(gray, equalised);
+      gray = equalised;
+    }
     // cv::SIFT holds per-call scratch state, so each call makes its own (cheap).
     auto sift = cv::SIFT::create(options_.max_features, 3, options_.contrast_threshold,
                                  options_.edge_threshold, options_.sigma);
@@ -142,11 +160,17 @@ class SiftExtractor final : public FeatureExtractor {
       std::copy(context, context + kDescriptorSize,
                 set.context.row(static_cast<Eigen::Index>(i)).data());
     }
-    NormaliseRows(&set.local);
-    NormaliseRows(&set.context);
+    if (options_.root_sift) {
+      RootRows(&set.local);
+      RootRows(&set.context);
+    } else {
+      NormaliseRows(&set.local);
+      NormaliseRows(&set.context);
+    }
     if (!target.holistic.empty()) {
       set.holistic_grid = target.holistic;
-      set.holistic = ComputeHolistic(gray, target.holistic, options_.holistic.cell_pixels);
+      set.holistic =
+          ComputeHolistic(holistic_source, target.holistic, options_.holistic.cell_pixels);
     }
     return set;
   }

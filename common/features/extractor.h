@@ -36,12 +36,18 @@ struct ExtractorOptions {
   int working_size = 480;
   // The context descriptor is computed at this multiple of the keypoint size (paper: 2).
   double context_scale = 2.0;
-  // SIFT detector settings (OpenCV defaults).
-  double contrast_threshold = 0.04;
+  // SIFT detector settings. OpenCV's contrast threshold is 0.04; half of it keeps dark and
+  // low-contrast frames in features (the strongest max_features are kept either way).
+  double contrast_threshold = 0.02;
   double edge_threshold = 10.0;
   double sigma = 1.6;
   // Refuse images larger than this many pixels per side (untrusted input).
   int max_image_side = 8192;
+  // Lighting options, measured and off by default (docs/results.md): contrast-limited
+  // adaptive histogram equalisation of the working frame before SIFT, with this clip limit
+  // (0 = off); RootSIFT descriptors instead of SIFT's.
+  double clahe_clip = 0;
+  bool root_sift = false;
   // The holistic descriptor (holistic.h); holistic.cols = 0 turns it off.
   HolisticOptions holistic;
 

@@ -34,9 +34,9 @@ static_assert(std::is_trivially_copyable_v<Neighbour> && sizeof(Neighbour) == 32
               "Neighbour is copied as the 32-byte record of map_io.h");
 // A new option must be stored too: add it to TransferOptions, to the layout in
 // map_io.h and to the round-trip test, bump kMapFormatVersion, then update these sizes.
-static_assert(sizeof(void*) != 8 || sizeof(ExtractorOptions) == 56,
+static_assert(sizeof(void*) != 8 || sizeof(ExtractorOptions) == 72,
               "ExtractorOptions changed: update the map file format");
-static_assert(sizeof(void*) != 8 || sizeof(TrainOptions) == 168,
+static_assert(sizeof(void*) != 8 || sizeof(TrainOptions) == 184,
               "TrainOptions changed: update the map file format");
 
 template <typename T>
@@ -54,6 +54,7 @@ class PayloadWriter {
   void Field(const char* /*name*/, const T& value) {
     Append(&value, sizeof(T));
   }
+  void Field(const char* name, const bool& value) { Field(name, uint8_t{value}); }
   void Field(const char* name, const std::string& value) {
     Field(name, uint64_t{value.size()});
     Append(value.data(), value.size());
@@ -94,6 +95,13 @@ class PayloadReader {
   template <typename T, IfArithmetic<T> = 0>
   void Field(const char* name, T& value) {
     Copy(name, &value, sizeof(T));
+  }
+  // A u8 that must be 0 or 1.
+  void Field(const char* name, bool& value) {
+    uint8_t byte = 0;
+    Field(name, byte);
+    if (byte > 1) Fail(std::string(name) + " is " + std::to_string(byte) + ", must be 0 or 1");
+    value = byte == 1;
   }
   void Field(const char* name, std::string& value) {
     uint64_t n = 0;
@@ -197,6 +205,8 @@ void TransferOptions(Archive& a, Options& o, uint32_t version, V1& v1) {
   a.Field("extractor.sigma", o.extractor.sigma);
   a.Field("extractor.max_image_side", o.extractor.max_image_side);
   if (v2) {
+    a.Field("extractor.clahe_clip", o.extractor.clahe_clip);
+    a.Field("extractor.root_sift", o.extractor.root_sift);
     a.Field("extractor.holistic_cols", o.extractor.holistic.cols);
     a.Field("extractor.holistic_cell_pixels", o.extractor.holistic.cell_pixels);
     a.Field("extractor.holistic_bins", o.extractor.holistic.bins);

@@ -16,8 +16,8 @@
 //   Payload, in this order:
 //     TrainOptions   extractor: i32 max_features, i32 working_size, f64 context_scale,
 //                      f64 contrast_threshold, f64 edge_threshold, f64 sigma,
-//                      i32 max_image_side, i32 holistic_cols, i32 holistic_cell_pixels,
-//                      i32 holistic_bins;
+//                      i32 max_image_side, f64 clahe_clip, u8 root_sift,
+//                      i32 holistic_cols, i32 holistic_cell_pixels, i32 holistic_bins;
 //                    f64 track_distance_threshold, f64 ransac_threshold,
 //                    f64 ransac_confidence, i32 min_links_per_pair, i32 min_track_length,
 //                    i32 min_landmarks_per_image, f64 local_var_floor,
@@ -44,8 +44,10 @@
 //          neighbour = 32 bytes: u32 landmark, then f32 cooccurrence, distance_mean,
 //                      distance_var, distance_dmax, angle_mean, angle_var, angle_dmax
 //
+//   where a u8 flag is 0 or 1.
+//
 //   Format version 1 (still read): extractor.working_size was f64 image_scale, and the
-//   holistic fields, min_landmarks_per_image and observation_angle were absent;
+//   lighting and holistic fields, min_landmarks_per_image and observation_angle were absent;
 //   ransac_threshold was f64 ransac_threshold_px and distance_sd_floor f64
 //   distance_var_floor (pixels^2). LoadMap converts such a map to today's terms: its
 //   working frame is the frame it was made in, pixel settings become fractions of it, and

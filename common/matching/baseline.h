@@ -1,7 +1,9 @@
-// The baseline every accuracy and speed claim is measured against (DESIGN.md): every
+// The baselines every accuracy and speed claim is measured against (DESIGN.md): every
 // feature of every tour image in one FLANN kd-tree index; each query feature votes for
 // the tour image of its nearest neighbour when it passes Lowe's ratio test (0.8); tour
-// images are ranked by votes.
+// images are ranked by votes. The stronger variant a user would script next re-ranks the
+// rerank_top most-voted images by the number of fundamental-matrix RANSAC inliers among
+// the ratio-test matches between the query and that image.
 #pragma once
 
 #include <memory>
@@ -16,12 +18,21 @@ struct BaselineOptions {
   double ratio = 0.8;  // Lowe's ratio on distances (not squared)
   int trees = 4;       // FLANN randomised kd-trees
   int checks = 64;     // FLANN leaves checked per query
+  // Re-rank this many most-voted images by RANSAC inliers (0 = votes only).
+  int rerank_top = 10;
+  // RANSAC inlier distance, pixels of the frame the features were extracted in.
+  double ransac_threshold_px = 3.0;
 };
 
 struct BaselineResult {
   std::vector<int> votes;  // per tour image
   int best = -1;           // tour image with most votes (lowest index on ties); -1 if none
-  float confidence = 0;    // v1 / (v1 + v2), the same form as ours
+  float confidence = 0;    // the vote share of the best: v1 / (v1 + v2), as ours once was
+  // The re-ranked variant (when rerank_top > 0): the image with most inliers among the
+  // rerank_top most voted (votes break ties), its inliers, and their share i1 / (i1 + i2).
+  int reranked_best = -1;
+  int reranked_inliers = 0;
+  float reranked_confidence = 0;
 };
 
 // Not thread-safe: FLANN's search is not documented as safe for concurrent calls, so call

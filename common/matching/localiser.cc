@@ -5,6 +5,7 @@
 #include <numeric>
 
 #include "common/matching/descriptor_similarity.h"
+#include "common/matching/evidence.h"
 #include "common/matching/holistic_similarity.h"
 #include "common/matching/neighbourhood.h"
 #include "common/matching/verification.h"
@@ -149,49 +150,6 @@ float Ratio(double first, double second) {
   return first + second > 0 ? static_cast<float>(first / (first + second)) : 0.0f;
 }
 
-// The locations to verify: the verify_top best by L, then the holistic_top best by holistic
-// distance that are not already in, each once, in that order.
-std::vector<CandidateEvidence> SelectCandidates(const std::vector<int>& by_likelihood,
-                                                const std::vector<float>& likelihood,
-                                                const std::vector<float>& holistic,
-                                                const MatchOptions& options) {
-  std::vector<int> holistic_rank(likelihood.size(), -1);
-  std::vector<int> by_holistic;
-  if (!holistic.empty()) {
-    std::vector<float> negated(holistic.size());
-    for (size_t l = 0; l < holistic.size(); ++l) negated[l] = -holistic[l];
-    by_holistic = RankByValue(negated);
-    for (size_t r = 0; r < by_holistic.size(); ++r) holistic_rank[by_holistic[r]] = int(r);
-  }
-  float median = 0, spread = 1;
-  if (!holistic.empty()) {
-    std::vector<float> sorted = holistic;
-    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-    median = sorted[sorted.size() / 2];
-    for (float& v : sorted) v = std::abs(v - median);
-    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-    spread = std::max(1e-6f, 1.4826f * sorted[sorted.size() / 2]);
-  }
-  std::vector<CandidateEvidence> out;
-  std::vector<bool> taken(likelihood.size(), false);
-  const auto add = [&](int l) {
-    if (taken[l]) return;
-    taken[l] = true;
-    CandidateEvidence c;
-    c.location = l;
-    c.likelihood = likelihood[l];
-    c.holistic = holistic.empty() ? -1.0f : holistic[l];
-    c.holistic_rank = holistic_rank[l];
-    c.holistic_z = holistic.empty() ? 0.0f : (median - holistic[l]) / spread;
-    out.push_back(c);
-  };
-  const size_t top_l = std::min(by_likelihood.size(), static_cast<size_t>(options.verify_top));
-  for (size_t i = 0; i < top_l; ++i) add(by_likelihood[i]);
-  const size_t top_h = std::min(by_holistic.size(), static_cast<size_t>(options.holistic_top));
-  for (size_t i = 0; i < top_h; ++i) add(by_holistic[i]);
-  return out;
-}
-
 // Verifies every candidate (one RANSAC each, spread over the pool).
 void VerifyCandidates(const FeatureSet& features, const Map& map, const FrameScores& scores,
                       const MatchOptions& options, ThreadPool* pool,
@@ -215,21 +173,6 @@ void VerifyCandidates(const FeatureSet& features, const Map& map, const FrameSco
   } else {
     verify(0, candidates->size());
   }
-}
-
-// The score candidates are ranked by. Geometric evidence is the epipolar inlier count
-// weighted by scale agreement; only what exceeds the count a wrong candidate reaches by
-// chance counts, so where local features fail (night, blur) the holistic evidence decides,
-// and where they work a clear geometric match overrides a look-alike.
-double FuseEvidence(const CandidateEvidence& c, const MatchOptions& options) {
-  double verified = c.inliers;
-  if (options.verify_scale_sigma > 0) {
-    const double s = options.verify_scale_sigma;
-    verified *= std::exp(-c.log_scale * c.log_scale / (2 * s * s));
-  }
-  if (c.holistic < 0) return verified;  // no holistic evidence: the inliers rank alone
-  return c.holistic_z +
-         options.verify_weight * std::max(0.0, verified - options.verify_chance_inliers);
 }
 
 // Brings a feature set extracted in another frame width into the map's: keypoint positions
@@ -256,18 +199,21 @@ StatusOr<LocaliseResult> LocaliseInFrame(const FeatureSet& features, const Map& 
   const std::vector<float>& likelihood = scores.likelihood;
   Stopwatch stage;
   const std::vector<float> holistic =
-      HolisticDistances(features, map, options.holistic_max_shift, pool);
+      options.use_holistic ? HolisticDistances(features, map, options.holistic_max_shift, pool)
+                           : std::vector<float>();
+  const std::vector<float> holistic_z = RobustZ(holistic);
   result.timings.holistic_ms = stage.Milliseconds();
 
   stage.Reset();
   const std::vector<int> by_likelihood = RankByValue(likelihood);
   std::vector<CandidateEvidence> candidates =
-      SelectCandidates(by_likelihood, likelihood, holistic, options);
+      SelectCandidates(by_likelihood, likelihood, holistic, holistic_z, options);
   result.timings.likelihood_ms += stage.Milliseconds();
 
   stage.Reset();
   VerifyCandidates(features, map, scores, options, pool, &candidates);
   for (CandidateEvidence& c : candidates) c.score = FuseEvidence(c, options);
+  result.location_scores = LocationScores(candidates, holistic_z, likelihood.size(), options);
   // Verified candidates first by fused score (L breaks ties), then the rest by L.
   std::stable_sort(candidates.begin(), candidates.end(),
                    [](const CandidateEvidence& a, const CandidateEvidence& b) {

@@ -45,8 +45,10 @@ struct MatchOptions {
   // number of epipolar inliers between the query and the landmarks' positions in each
   // candidate, ties broken by L. 0 ranks by L alone (paper). Default by measurement.
   int verify_top = 10;
-  // Also verify this many tour images with the smallest holistic distance (0 = none; no
-  // effect on maps or queries without holistic descriptors).
+  // Use the holistic evidence (holistic_similarity.h; our departure): its candidates and its
+  // z-score in the fusion. No effect on maps or queries without holistic descriptors.
+  bool use_holistic = true;
+  // Also verify this many tour images with the smallest holistic distance (0 = none).
   int holistic_top = 10;
   // Lateral tolerance of the holistic comparison, in grid cells (2 of 16 = 1/8 of the width).
   int holistic_max_shift = 2;
@@ -65,7 +67,7 @@ struct MatchOptions {
   // Fusion of the evidence (FuseEvidence in localiser.cc): a candidate's score is its
   // holistic z-score plus verify_weight for every scale-weighted inlier above
   // verify_chance_inliers, the count a wrong candidate reaches by chance. Without holistic
-  // descriptors the inliers alone rank.
+  // evidence the scale-weighted inliers alone rank.
   double verify_chance_inliers = 8;
   double verify_weight = 0.2;
   // How many ranked locations a result carries.
@@ -116,6 +118,9 @@ struct LocaliseResult {
   StageTimings timings;
   // The verified candidates, best first (the evidence behind the answer).
   std::vector<CandidateEvidence> candidates;
+  // Every tour location's evidence on the fused scale (LocationScores in evidence.h): the
+  // candidates' fused scores, the others' holistic z-score.
+  std::vector<float> location_scores;
 };
 
 // Checks a feature set from an untrusted source: consistent counts, finite values,

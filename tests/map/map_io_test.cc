@@ -64,6 +64,8 @@ Map MakeMapWithDistinctOptions() {
   o.extractor.sigma = 1.7;
   o.extractor.max_image_side = 4097;
   o.extractor.holistic.cell_pixels = 7;
+  o.extractor.clahe_clip = 2.5;
+  o.extractor.root_sift = true;
   o.track_distance_threshold = 0.55;
   o.ransac_threshold = 0.0047;
   o.ransac_confidence = 0.995;

@@ -197,6 +197,8 @@ void ExpectOptionsEqual(const TrainOptions& a, const TrainOptions& b) {
   EXPECT_EQ(a.extractor.edge_threshold, b.extractor.edge_threshold);
   EXPECT_EQ(a.extractor.sigma, b.extractor.sigma);
   EXPECT_EQ(a.extractor.max_image_side, b.extractor.max_image_side);
+  EXPECT_EQ(a.extractor.clahe_clip, b.extractor.clahe_clip);
+  EXPECT_EQ(a.extractor.root_sift, b.extractor.root_sift);
   EXPECT_EQ(a.extractor.holistic.cols, b.extractor.holistic.cols);
   EXPECT_EQ(a.extractor.holistic.cell_pixels, b.extractor.holistic.cell_pixels);
   EXPECT_EQ(a.extractor.holistic.bins, b.extractor.holistic.bins);

@@ -2,11 +2,14 @@
 // error line naming the file and the problem, a non-zero exit, and no map file.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <array>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "common/map/map_io.h"
 #include "common/synthetic/tour_generator.h"
@@ -160,6 +163,50 @@ TEST_F(CliTest, EvalRefusesBadQueryFolders) {
   fs::copy_file(dir_ / "test" / "Image001.jpg", dir_ / "q_stranger" / "Elsewhere.jpg");
   ExpectOneLineError(RunCommand(eval + "'" + (dir_ / "q_stranger").string() + "'"),
                      {"Elsewhere.jpg", "not a tour image"});
+}
+
+// An --out that cannot be written is refused at once, before any image is read: a missing
+// folder, a folder given as the file, a read-only folder.
+TEST_F(CliTest, UnwritableOutputRefusedFirst) {
+  const std::string tour = (dir_ / "tour").string();
+  ExpectOneLineError(RunCommand(Train(tour, (dir_ / "no_such_dir" / "m.scnl").string())),
+                     {"no_such_dir", "does not exist"});
+  ExpectOneLineError(RunCommand(Train(tour, dir_.string())), {"is a folder"});
+  if (::geteuid() != 0) {  // root writes anywhere
+    fs::create_directories(dir_ / "ro");
+    fs::permissions(dir_ / "ro", fs::perms::owner_read | fs::perms::owner_exec);
+    ExpectOneLineError(RunCommand(Train(tour, (dir_ / "ro" / "m.scnl").string())),
+                       {"ro", "not writable"});
+    fs::permissions(dir_ / "ro", fs::perms::owner_all);
+  }
+}
+
+// A tour of mixed image sizes trains, with a warning, in the first image's frame.
+TEST_F(CliTest, MixedSizeTourTrainsWithWarning) {
+  fs::create_directories(dir_ / "mixed");
+  fs::copy(dir_ / "tour", dir_ / "mixed", fs::copy_options::recursive);
+  const cv::Mat image = cv::imread((dir_ / "mixed" / "Image005.jpg").string());
+  cv::Mat smaller;
+  cv::resize(image, smaller, cv::Size(), 0.75, 0.75, cv::INTER_AREA);
+  ASSERT_TRUE(cv::imwrite((dir_ / "mixed" / "Image005.jpg").string(), smaller));
+  const std::string map = (dir_ / "mixed.scnl").string();
+  const RunResult r = RunCommand(Train((dir_ / "mixed").string(), map));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("1 of 8 tour images differ in size"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("working frame 480x270"), std::string::npos) << r.output;
+  EXPECT_TRUE(LoadMap(map).ok());
+}
+
+// An image too small to hold a feature is named in the error and no map is written.
+TEST_F(CliTest, TinyImageNamed) {
+  fs::create_directories(dir_ / "tiny");
+  fs::copy(dir_ / "tour", dir_ / "tiny", fs::copy_options::recursive);
+  ASSERT_TRUE(cv::imwrite((dir_ / "tiny" / "Image002.jpg").string(),
+                          cv::Mat(8, 8, CV_8UC3, cv::Scalar(90, 120, 60))));
+  const std::string out = (dir_ / "never.scnl").string();
+  ExpectOneLineError(RunCommand(Train((dir_ / "tiny").string(), out)),
+                     {"Image002.jpg", "8x8", "too small"});
+  EXPECT_FALSE(fs::exists(out));
 }
 
 }  // namespace

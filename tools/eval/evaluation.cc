@@ -72,18 +72,40 @@ Percentiles ComputePercentiles(std::vector<double> values) {
   return p;
 }
 
-namespace {
+const char* MethodName(Method method) {
+  switch (method) {
+    case Method::kOurs:
+      return "sceneloc";
+    case Method::kBaseline:
+      return "baseline";
+    case Method::kReranked:
+      return "baseline+ransac";
+  }
+  return "";
+}
 
-MethodSummary SummariseMethod(const std::vector<QueryOutcome>& outcomes, bool baseline) {
+const MethodOutcome& OutcomeOf(const QueryOutcome& o, Method method) {
+  switch (method) {
+    case Method::kBaseline:
+      return o.baseline;
+    case Method::kReranked:
+      return o.reranked;
+    case Method::kOurs:
+      break;
+  }
+  return o.ours;
+}
+
+MethodSummary SummariseMethod(const std::vector<QueryOutcome>& outcomes, Method method) {
   MethodSummary m;
   std::vector<double> times;
   for (const QueryOutcome& o : outcomes) {
-    const int predicted = baseline ? o.baseline_predicted : o.predicted;
+    const MethodOutcome& r = OutcomeOf(o, method);
     for (int k = 0; k <= kMaxTolerance; ++k) {
-      if (predicted >= 0 && std::abs(predicted - o.truth) <= k) m.match_rate[k] += 1;
+      if (r.predicted >= 0 && std::abs(r.predicted - o.truth) <= k) m.match_rate[k] += 1;
     }
-    m.mean_confidence += baseline ? o.baseline_confidence : o.confidence;
-    times.push_back(baseline ? o.baseline_ms : o.match_ms);
+    m.mean_confidence += r.confidence;
+    times.push_back(r.ms);
   }
   const double n = std::max<double>(1, static_cast<double>(outcomes.size()));
   for (double& r : m.match_rate) r /= n;
@@ -92,13 +114,14 @@ MethodSummary SummariseMethod(const std::vector<QueryOutcome>& outcomes, bool ba
   return m;
 }
 
-}  // namespace
-
 EvalSummary Summarise(const std::vector<QueryOutcome>& outcomes, bool with_baseline) {
   EvalSummary s;
   s.queries = outcomes.size();
-  s.ours = SummariseMethod(outcomes, false);
-  if (with_baseline) s.baseline = SummariseMethod(outcomes, true);
+  s.ours = SummariseMethod(outcomes, Method::kOurs);
+  if (with_baseline) {
+    s.baseline = SummariseMethod(outcomes, Method::kBaseline);
+    s.reranked = SummariseMethod(outcomes, Method::kReranked);
+  }
   s.has_baseline = with_baseline;
   const auto stage = [&](auto field) {
     std::vector<double> values;
@@ -109,37 +132,56 @@ EvalSummary Summarise(const std::vector<QueryOutcome>& outcomes, bool with_basel
   s.descriptor_ms = stage([](const QueryOutcome& o) { return o.stages.descriptor_ms; });
   s.neighbourhood_ms = stage([](const QueryOutcome& o) { return o.stages.neighbourhood_ms; });
   s.likelihood_ms = stage([](const QueryOutcome& o) { return o.stages.likelihood_ms; });
+  s.holistic_ms = stage([](const QueryOutcome& o) { return o.stages.holistic_ms; });
   s.verify_ms = stage([](const QueryOutcome& o) { return o.stages.verify_ms; });
   return s;
+}
+
+Status RunOurs(const std::vector<FeatureSet>& queries, const Map& map, const MatchOptions& options,
+               int threads, std::vector<QueryOutcome>* outcomes) {
+  ThreadPool pool(threads);
+  for (size_t q = 0; q < queries.size(); ++q) {
+    Stopwatch watch;
+    SCENELOC_ASSIGN_OR_RETURN(const LocaliseResult r, Localise(queries[q], map, options, &pool));
+    QueryOutcome& o = (*outcomes)[q];
+    o.ours.ms = watch.Milliseconds();
+    o.ours.predicted = r.ranked.empty() ? -1 : r.ranked[0].index;
+    o.ours.confidence = r.confidence;
+    o.descriptor_matches = r.descriptor_matches;
+    o.stages = r.timings;
+    o.candidates = r.candidates;
+    o.location_scores = r.location_scores;
+    o.keypoints = queries[q].size();
+  }
+  return Status::Ok();
+}
+
+Status RunBaselines(const std::vector<FeatureSet>& queries, const std::vector<FeatureSet>& tour,
+                    double ransac_threshold, std::vector<QueryOutcome>* outcomes) {
+  BaselineOptions options;
+  if (!tour.empty()) {
+    options.ransac_threshold_px =
+        ransac_threshold * std::max(tour.front().image_width, tour.front().image_height);
+  }
+  SCENELOC_ASSIGN_OR_RETURN(auto baseline, VotingBaseline::Build(tour, options));
+  for (size_t q = 0; q < queries.size(); ++q) {
+    Stopwatch watch;
+    const BaselineResult r = baseline->Localise(queries[q]);
+    const double ms = watch.Milliseconds();
+    QueryOutcome& o = (*outcomes)[q];
+    o.baseline = {r.best, r.confidence, ms};
+    o.reranked = {r.reranked_best, r.reranked_confidence, ms};
+  }
+  return Status::Ok();
 }
 
 Status RunQueries(const std::vector<FeatureSet>& queries, const Map& map,
                   const MatchOptions& options, int threads,
                   const std::vector<FeatureSet>* baseline_tour,
                   std::vector<QueryOutcome>* outcomes) {
-  ThreadPool pool(threads);
-  for (size_t q = 0; q < queries.size(); ++q) {
-    Stopwatch watch;
-    SCENELOC_ASSIGN_OR_RETURN(const LocaliseResult r, Localise(queries[q], map, options, &pool));
-    QueryOutcome& o = (*outcomes)[q];
-    o.match_ms = watch.Milliseconds();
-    o.predicted = r.ranked.empty() || r.ranked[0].likelihood <= 0 ? -1 : r.ranked[0].index;
-    o.confidence = r.confidence;
-    o.descriptor_matches = r.descriptor_matches;
-    o.stages = r.timings;
-    o.candidates = r.candidates;
-  }
+  SCENELOC_RETURN_IF_ERROR(RunOurs(queries, map, options, threads, outcomes));
   if (baseline_tour == nullptr) return Status::Ok();
-  SCENELOC_ASSIGN_OR_RETURN(auto baseline, VotingBaseline::Build(*baseline_tour, {}));
-  for (size_t q = 0; q < queries.size(); ++q) {
-    Stopwatch watch;
-    const BaselineResult r = baseline->Localise(queries[q]);
-    QueryOutcome& o = (*outcomes)[q];
-    o.baseline_ms = watch.Milliseconds();
-    o.baseline_predicted = r.best;
-    o.baseline_confidence = r.confidence;
-  }
-  return Status::Ok();
+  return RunBaselines(queries, *baseline_tour, options.verify_ransac_threshold, outcomes);
 }
 
 }  // namespace sceneloc

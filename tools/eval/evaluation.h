@@ -26,19 +26,25 @@ StatusOr<std::vector<int>> ResolveTruth(const std::vector<std::string>& query_na
                                         const std::vector<std::string>& tour_names,
                                         const std::map<std::string, std::string>& ground_truth);
 
+// One method's answer to one query.
+struct MethodOutcome {
+  int predicted = -1;    // tour index, -1 for no answer
+  float confidence = 0;  // the method's own score for its answer (higher = surer)
+  double ms = 0;         // matching time
+};
+
 struct QueryOutcome {
   std::string name;
   int truth = -1;
-  int predicted = -1;
-  float confidence = 0;
   double extract_ms = 0;
-  double match_ms = 0;
+  MethodOutcome ours;
   size_t descriptor_matches = 0;
   StageTimings stages;                        // ours, per matching stage
   std::vector<CandidateEvidence> candidates;  // ours, the verified candidates
-  int baseline_predicted = -1;
-  float baseline_confidence = 0;
-  double baseline_ms = 0;
+  std::vector<float> location_scores;         // ours, every location's fused evidence
+  int keypoints = 0;                          // the query's feature count
+  MethodOutcome baseline;                     // FLANN votes (when the baselines ran)
+  MethodOutcome reranked;                     // the same, top 10 re-ranked by RANSAC inliers
 };
 
 struct Percentiles {
@@ -54,22 +60,40 @@ struct MethodSummary {
   Percentiles match_ms;
 };
 
+// Which method of a QueryOutcome.
+enum class Method { kOurs, kBaseline, kReranked };
+const char* MethodName(Method method);
+const MethodOutcome& OutcomeOf(const QueryOutcome& o, Method method);
+
 struct EvalSummary {
   size_t queries = 0;
   MethodSummary ours;
-  MethodSummary baseline;  // filled when the baseline ran
+  MethodSummary baseline;  // filled when the baselines ran
+  MethodSummary reranked;
   bool has_baseline = false;
   Percentiles extract_ms;
-  // Ours, per matching stage: descriptor (S_D), neighbourhood (S_N), likelihood, verify.
-  Percentiles descriptor_ms, neighbourhood_ms, likelihood_ms, verify_ms;
+  // Ours, per matching stage: descriptor (S_D), neighbourhood (S_N), likelihood, holistic,
+  // verify.
+  Percentiles descriptor_ms, neighbourhood_ms, likelihood_ms, holistic_ms, verify_ms;
 };
+
+MethodSummary SummariseMethod(const std::vector<QueryOutcome>& outcomes, Method method);
 
 // Summarises outcomes; `with_baseline` says whether the baseline fields are meaningful.
 EvalSummary Summarise(const std::vector<QueryOutcome>& outcomes, bool with_baseline);
 
-// Localises every query (already extracted) against the map with `threads` threads
-// and, if `baseline_tour` is non-null, the baseline built from those tour features.
-// Fills predicted/confidence/match_ms (and the baseline fields) of `outcomes`.
+// Localises every query (already extracted) against the map with `threads` threads and
+// fills outcome.ours (and the stages, matches and candidates).
+Status RunOurs(const std::vector<FeatureSet>& queries, const Map& map, const MatchOptions& options,
+               int threads, std::vector<QueryOutcome>* outcomes);
+
+// Runs both baselines built from `tour` (the map's tour, extracted as the map's) and fills
+// outcome.baseline and outcome.reranked. The RANSAC threshold is the map frame's fraction
+// `ransac_threshold` (as verify_ransac_threshold).
+Status RunBaselines(const std::vector<FeatureSet>& queries, const std::vector<FeatureSet>& tour,
+                    double ransac_threshold, std::vector<QueryOutcome>* outcomes);
+
+// RunOurs, then RunBaselines when `baseline_tour` is not null.
 Status RunQueries(const std::vector<FeatureSet>& queries, const Map& map,
                   const MatchOptions& options, int threads,
                   const std::vector<FeatureSet>* baseline_tour,

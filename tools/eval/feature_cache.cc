@@ -15,19 +15,21 @@ namespace {
 constexpr uint32_t kCacheVersion = 2;
 
 // Identifies a cache entry: the folder, its files (names and sizes) and the options.
-std::string CacheKey(const std::string& dir, const std::vector<std::string>& paths,
-                     const ExtractorOptions& o, const ExtractionTarget* frame) {
+std::string CacheKey(const std::vector<std::string>& paths, const ExtractorOptions& o,
+                     const ExtractionTarget* frame) {
   std::ostringstream key;
-  key << std::filesystem::absolute(dir).string() << kCacheVersion << o.max_features << ' '
-      << o.working_size << ' ' << o.context_scale << ' ' << o.contrast_threshold << ' '
-      << o.edge_threshold << ' ' << o.sigma << ' ' << o.holistic.cols << ' '
-      << o.holistic.cell_pixels << ' ' << o.holistic.bins;
+  key << kCacheVersion << ' ' << o.max_features << ' ' << o.working_size << ' ' << o.context_scale
+      << ' ' << o.contrast_threshold << ' ' << o.edge_threshold << ' ' << o.sigma << ' '
+      << o.holistic.cols << ' ' << o.holistic.cell_pixels << ' ' << o.holistic.bins << ' '
+      << o.clahe_clip << ' ' << o.root_sift;
   if (frame != nullptr) {
     key << " query " << frame->width << ' ' << frame->holistic.cols << ' ' << frame->holistic.rows
         << ' ' << frame->holistic.bins;
   }
   std::error_code ec;
-  for (const auto& p : paths) key << p << std::filesystem::file_size(p, ec);
+  for (const auto& p : paths) {
+    key << std::filesystem::absolute(p).string() << std::filesystem::file_size(p, ec);
+  }
   std::ostringstream name;
   name << std::hex << std::hash<std::string>{}(key.str()) << ".features";
   return name.str();
@@ -103,19 +105,15 @@ bool Read(const std::string& path, size_t expected, std::vector<FeatureSet>* set
 
 }  // namespace
 
-StatusOr<std::vector<FeatureSet>> ExtractFolderCached(const std::string& dir,
-                                                      const ExtractorOptions& options,
-                                                      const std::string& cache_dir, int threads,
-                                                      std::vector<std::string>* names,
-                                                      const ExtractionTarget* map_frame) {
-  SCENELOC_ASSIGN_OR_RETURN(const std::vector<std::string> paths, ListImageFiles(dir));
-  names->clear();
-  for (const auto& p : paths) names->push_back(FileName(p));
+StatusOr<std::vector<FeatureSet>> ExtractCached(const std::vector<std::string>& paths,
+                                                const ExtractorOptions& options,
+                                                const std::string& cache_dir, int threads,
+                                                const ExtractionTarget* map_frame) {
   std::string entry;
   if (!cache_dir.empty()) {
     std::error_code ec;
     std::filesystem::create_directories(cache_dir, ec);
-    entry = cache_dir + "/" + CacheKey(dir, paths, options, map_frame);
+    entry = cache_dir + "/" + CacheKey(paths, options, map_frame);
     std::vector<FeatureSet> cached;
     if (Read(entry, paths.size(), &cached)) return cached;
   }
@@ -130,6 +128,17 @@ StatusOr<std::vector<FeatureSet>> ExtractFolderCached(const std::string& dir,
   }
   if (!entry.empty()) Write(entry, sets);
   return sets;
+}
+
+StatusOr<std::vector<FeatureSet>> ExtractFolderCached(const std::string& dir,
+                                                      const ExtractorOptions& options,
+                                                      const std::string& cache_dir, int threads,
+                                                      std::vector<std::string>* names,
+                                                      const ExtractionTarget* map_frame) {
+  SCENELOC_ASSIGN_OR_RETURN(const std::vector<std::string> paths, ListImageFiles(dir));
+  names->clear();
+  for (const auto& p : paths) names->push_back(FileName(p));
+  return ExtractCached(paths, options, cache_dir, threads, map_frame);
 }
 
 }  // namespace sceneloc

@@ -18,6 +18,12 @@ namespace sceneloc {
 // An empty cache_dir disables caching. Without `map_frame` the folder is a tour (every image
 // in the tour frame of the first, ExtractFolder); with it, a query folder extracted for a
 // map made in that frame (QueryTarget).
+StatusOr<std::vector<FeatureSet>> ExtractCached(const std::vector<std::string>& paths,
+                                                const ExtractorOptions& options,
+                                                const std::string& cache_dir, int threads,
+                                                const ExtractionTarget* map_frame = nullptr);
+
+// ExtractCached over every image of `dir`; `names` receives their file names.
 StatusOr<std::vector<FeatureSet>> ExtractFolderCached(const std::string& dir,
                                                       const ExtractorOptions& options,
                                                       const std::string& cache_dir, int threads,

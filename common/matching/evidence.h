@@ -1,0 +1,41 @@
+// The evidence for each candidate location and how it is fused into one score (our
+// departure from the paper; measured in docs/results.md). Localise (localiser.h) selects
+// candidates here, verifies them, then ranks them by FuseEvidence.
+#pragma once
+
+#include <vector>
+
+#include "common/matching/localiser.h"
+
+namespace sceneloc {
+
+// Robust z-scores of distances: (median - d) / (1.4826 MAD) per entry, so a location far
+// below the typical distance scores high. Empty in, empty out.
+std::vector<float> RobustZ(const std::vector<float>& distance);
+
+// The locations to verify: the verify_top best by L (by_likelihood is every location by
+// descending L), then the holistic_top best by holistic distance that are not already in,
+// each once, in that order, with their L and holistic evidence filled in. `holistic` and
+// `holistic_z` are empty without holistic evidence.
+std::vector<CandidateEvidence> SelectCandidates(const std::vector<int>& by_likelihood,
+                                                const std::vector<float>& likelihood,
+                                                const std::vector<float>& holistic,
+                                                const std::vector<float>& holistic_z,
+                                                const MatchOptions& options);
+
+// Geometric evidence of a verified candidate: its epipolar inliers weighted by keypoint
+// scale agreement, exp(-m^2 / 2 s^2) with s = verify_scale_sigma (1 when 0).
+double VerifiedScore(const CandidateEvidence& c, const MatchOptions& options);
+
+// The score candidates are ranked by: the holistic z-score plus verify_weight for every
+// verified inlier above verify_chance_inliers. Without holistic evidence, VerifiedScore.
+double FuseEvidence(const CandidateEvidence& c, const MatchOptions& options);
+
+// Every location's score on the fused scale: a candidate's fused score; any other
+// location's holistic z-score (its geometric evidence unmeasured, taken as chance), or 0
+// without holistic evidence.
+std::vector<float> LocationScores(const std::vector<CandidateEvidence>& candidates,
+                                  const std::vector<float>& holistic_z, size_t num_locations,
+                                  const MatchOptions& options);
+
+}  // namespace sceneloc

@@ -1,0 +1,242 @@
+// sceneloc-accuracy: the accuracy suite (tools/eval/accuracy_suite.h) in one run. Every
+// development set, four methods on the same features, one table on stdout, and
+//   OUT/accuracy.json   every figure, per set and method, with the settings and machine
+//   OUT/accuracy.csv    one row per set and method
+// (scripts/accuracy.sh adds OUT/accuracy.png). Run from the repository root:
+//   sceneloc-accuracy --data ../shared/data --out accuracy-out [--sets gp_day,corridor]
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "common/config/config.h"
+#include "common/util/timer.h"
+#include "tools/eval/accuracy_suite.h"
+
+namespace {
+
+namespace sl = sceneloc;
+
+int Fail(const std::string& message) {
+  std::fprintf(stderr, "sceneloc-accuracy: %s\n", message.c_str());
+  return 1;
+}
+
+struct Row {
+  std::string method;
+  const sl::MethodSummary* summary;
+};
+
+std::vector<Row> Rows(const sl::SetResult& r) {
+  return {{"sceneloc", &r.summary.ours},
+          {"paper", &r.paper},
+          {"baseline", &r.summary.baseline},
+          {"baseline+ransac", &r.summary.reranked}};
+}
+
+nlohmann::json MethodJson(const sl::MethodSummary& m) {
+  nlohmann::json rates;
+  for (int k = 0; k <= sl::kMaxTolerance; ++k) rates[std::to_string(k)] = m.match_rate[k];
+  return {{"match_rate", rates},
+          {"mean_confidence", m.mean_confidence},
+          {"match_ms",
+           {{"median", m.match_ms.median}, {"p90", m.match_ms.p90}, {"p99", m.match_ms.p99}}}};
+}
+
+nlohmann::json QueriesJson(const sl::SetResult& r) {
+  nlohmann::json out = nlohmann::json::array();
+  for (size_t q = 0; q < r.outcomes.size(); ++q) {
+    const sl::QueryOutcome& o = r.outcomes[q];
+    out.push_back({{"query", o.name},
+                   {"truth", o.truth},
+                   {"sceneloc", {o.ours.predicted, o.ours.confidence}},
+                   {"paper", {r.paper_outcomes[q].predicted, r.paper_outcomes[q].confidence}},
+                   {"baseline", {o.baseline.predicted, o.baseline.confidence}},
+                   {"baseline+ransac", {o.reranked.predicted, o.reranked.confidence}}});
+  }
+  return out;
+}
+
+nlohmann::json SetJson(const sl::SetResult& r) {
+  nlohmann::json methods;
+  for (const Row& row : Rows(r)) methods[row.method] = MethodJson(*row.summary);
+  return {{"name", r.set.name},
+          {"description", r.set.description},
+          {"tour", r.set.tour_dir},
+          {"queries_dir", r.set.queries_dir},
+          {"change", sl::QueryChangeName(r.set.change)},
+          {"locations", r.locations},
+          {"queries", r.outcomes.size()},
+          {"landmarks", r.landmarks},
+          {"train_s", r.train_seconds},
+          {"extract_ms_median", r.summary.extract_ms.median},
+          {"methods", methods},
+          {"per_query", QueriesJson(r)}};
+}
+
+void PrintHeader() {
+  std::printf("%-16s %5s  %-16s %6s %6s %6s %6s  %9s\n", "set", "n", "method", "exact", "±1", "±2",
+              "±3", "match ms");
+}
+
+void PrintSet(const sl::SetResult& r) {
+  bool first = true;
+  for (const Row& row : Rows(r)) {
+    const sl::MethodSummary& m = *row.summary;
+    std::printf(
+        "%-16s %5s  %-16s %6.3f %6.3f %6.3f %6.3f  %9.1f\n", first ? r.set.name.c_str() : "",
+        first ? std::to_string(r.outcomes.size()).c_str() : "", row.method.c_str(), m.match_rate[0],
+        m.match_rate[1], m.match_rate[2], m.match_rate[3], m.match_ms.median);
+    first = false;
+  }
+  std::fflush(stdout);
+}
+
+// Our settings with one ablation variant's overrides ("@paper": the paper's settings).
+sl::StatusOr<sl::SuiteSettings> VariantSettings(const sl::SuiteSettings& base,
+                                                const sl::AblationVariant& v) {
+  sl::SuiteSettings s = base;
+  if (v.train_yaml == "@paper") {
+    s.train = base.paper_train;
+    s.train.extractor = base.train.extractor;
+  } else {
+    SCENELOC_RETURN_IF_ERROR(sl::ParseTrainOptions(v.train_yaml, v.name, &s.train));
+  }
+  if (v.match_yaml == "@paper") {
+    s.match = base.paper_match;
+  } else {
+    SCENELOC_RETURN_IF_ERROR(sl::ParseMatchOptions(v.match_yaml, v.name, &s.match));
+  }
+  return s;
+}
+
+// Every variant on every set: one line per variant with ±2 / ±3 per set, and
+// OUT/ablation.csv.
+int RunAblation(const std::vector<sl::SuiteSet>& sets, const sl::SuiteSettings& settings,
+                const std::vector<std::string>& only, const sl::SuiteContext& context,
+                const std::string& out_dir) {
+  std::ofstream csv(out_dir + "/ablation.csv");
+  if (!csv) return Fail("cannot write to '" + out_dir + "'");
+  csv << "variant,set,queries,landmarks,train_s,rate0,rate1,rate2,rate3,match_ms_median\n";
+  std::printf("%-22s", "±2 / ±3");
+  for (const sl::SuiteSet& set : sets) std::printf(" %15s", set.name.c_str());
+  std::printf("\n");
+  for (const sl::AblationVariant& v : sl::AblationVariants()) {
+    if (!only.empty() && std::find(only.begin(), only.end(), v.name) == only.end()) continue;
+    auto s = VariantSettings(settings, v);
+    if (!s.ok()) return Fail(s.status().message());
+    std::printf("%-22s", v.name.c_str());
+    for (const sl::SuiteSet& set : sets) {
+      auto data = sl::LoadSet(set, s->train.extractor, context);
+      if (!data.ok()) return Fail(set.name + ": " + data.status().message());
+      auto r = sl::RunVariant(*data, s->train, s->match, context);
+      if (!r.ok()) return Fail(v.name + " on " + set.name + ": " + r.status().message());
+      const sl::MethodSummary& m = r->summary;
+      std::printf("     %.2f / %.2f", m.match_rate[2], m.match_rate[3]);
+      std::fflush(stdout);
+      csv << v.name << ',' << set.name << ',' << r->outcomes.size() << ',' << r->landmarks << ','
+          << r->train_seconds << ',' << m.match_rate[0] << ',' << m.match_rate[1] << ','
+          << m.match_rate[2] << ',' << m.match_rate[3] << ',' << m.match_ms.median << '\n'
+          << std::flush;
+    }
+    std::printf("\n");
+  }
+  return 0;
+}
+
+std::string Hostname() {
+  char name[256] = {0};
+  gethostname(name, sizeof(name) - 1);
+  return name;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "sceneloc-accuracy: every development set, ours beside the paper and both "
+      "baselines on the same features"};
+  std::string data_dir = "../shared/data", out_dir = "accuracy-out", cache_dir;
+  std::string train_config = "configs/train.yaml", match_config = "configs/match.yaml";
+  std::string paper_train = "configs/paper-train.yaml", paper_match = "configs/paper-match.yaml";
+  std::vector<std::string> only, variants;
+  bool ablation = false;
+  int tour_limit = 0, query_limit = 0;
+  sl::SuiteContext context;
+  context.threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  app.add_option("--data", data_dir, "the development data (gardens_point/, corridor/)")
+      ->capture_default_str();
+  app.add_option("--out", out_dir, "folder for accuracy.json and accuracy.csv")
+      ->capture_default_str();
+  app.add_option("--cache", cache_dir, "features and generated variants (default OUT/cache)");
+  app.add_option("--sets", only, "run only these sets (comma-separated)")->delimiter(',');
+  app.add_option("--tour-limit", tour_limit, "use the first N tour images of every set");
+  app.add_option("--query-limit", query_limit, "use the first N queries of every set");
+  app.add_option("--config", train_config, "our training settings")->capture_default_str();
+  app.add_option("--match-config", match_config, "our matching settings")->capture_default_str();
+  app.add_option("--paper-config", paper_train, "the paper's training settings")
+      ->capture_default_str();
+  app.add_option("--paper-match-config", paper_match, "the paper's matching settings")
+      ->capture_default_str();
+  app.add_option("--threads", context.threads, "threads")->check(CLI::Range(1, 256));
+  app.add_flag("--ablation", ablation,
+               "run the ablation instead: every variant on every set (OUT/ablation.csv)");
+  app.add_option("--variants", variants, "with --ablation: only these variants")->delimiter(',');
+  CLI11_PARSE(app, argc, argv);
+  context.cache_dir = cache_dir.empty() ? out_dir + "/cache" : cache_dir;
+
+  sl::SuiteSettings settings;
+  for (const auto& [path, status] :
+       {std::pair{train_config, sl::LoadTrainOptions(train_config, &settings.train)},
+        std::pair{match_config, sl::LoadMatchOptions(match_config, &settings.match)},
+        std::pair{paper_train, sl::LoadTrainOptions(paper_train, &settings.paper_train)},
+        std::pair{paper_match, sl::LoadMatchOptions(paper_match, &settings.paper_match)}}) {
+    if (!status.ok()) return Fail(status.message());
+  }
+  std::vector<sl::SuiteSet> sets;
+  for (sl::SuiteSet s : sl::DevelopmentSuite(data_dir)) {
+    if (!only.empty() && std::find(only.begin(), only.end(), s.name) == only.end()) continue;
+    if (tour_limit > 0)
+      s.tour_limit = s.tour_limit > 0 ? std::min(s.tour_limit, tour_limit) : tour_limit;
+    if (query_limit > 0) s.query_limit = query_limit;
+    sets.push_back(s);
+  }
+  if (sets.empty()) return Fail("no set to run: is '" + data_dir + "' the data folder?");
+  std::error_code ec;
+  std::filesystem::create_directories(out_dir, ec);
+  if (ablation) return RunAblation(sets, settings, variants, context, out_dir);
+  std::ofstream csv(out_dir + "/accuracy.csv");
+  if (!csv) return Fail("cannot write to '" + out_dir + "'");
+  csv << "set,method,queries,rate0,rate1,rate2,rate3,match_ms_median,match_ms_p90\n";
+
+  nlohmann::json json = {{"host", Hostname()},
+                         {"threads", context.threads},
+                         {"hardware_threads", std::thread::hardware_concurrency()},
+                         {"train_settings", sl::TrainOptionsToYaml(settings.train)},
+                         {"match_settings", sl::MatchOptionsToYaml(settings.match)},
+                         {"sets", nlohmann::json::array()}};
+  sl::Stopwatch total;
+  PrintHeader();
+  for (const sl::SuiteSet& set : sets) {
+    std::fprintf(stderr, "sceneloc-accuracy: %s ...\n", set.name.c_str());
+    auto result = sl::RunSet(set, settings, context);
+    if (!result.ok()) return Fail(set.name + ": " + result.status().message());
+    PrintSet(*result);
+    json["sets"].push_back(SetJson(*result));
+    for (const Row& row : Rows(*result)) {
+      const sl::MethodSummary& m = *row.summary;
+      csv << set.name << ',' << row.method << ',' << result->outcomes.size() << ','
+          << m.match_rate[0] << ',' << m.match_rate[1] << ',' << m.match_rate[2] << ','
+          << m.match_rate[3] << ',' << m.match_ms.median << ',' << m.match_ms.p90 << '\n';
+    }
+  }
+  json["elapsed_s"] = total.Seconds();
+  std::ofstream(out_dir + "/accuracy.json") << json.dump(1) << "\n";
+  std::printf("%zu sets in %.0f s; %s/accuracy.json, %s/accuracy.csv\n", sets.size(),
+              total.Seconds(), out_dir.c_str(), out_dir.c_str());
+  return 0;
+}

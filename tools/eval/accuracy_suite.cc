@@ -1,0 +1,226 @@
+#include "tools/eval/accuracy_suite.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <random>
+
+#include "common/features/extractor.h"
+#include "common/training/trainer.h"
+#include "common/util/image_folder.h"
+#include "common/util/timer.h"
+#include "tools/eval/feature_cache.h"
+
+namespace sceneloc {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The changed image and the JPEG quality it is stored at.
+std::pair<cv::Mat, int> Change(const cv::Mat& image, QueryChange change, uint32_t seed) {
+  cv::Mat out;
+  switch (change) {
+    case QueryChange::kSmaller:  // a camera of a third of the resolution
+      cv::resize(image, out, cv::Size(), 1.0 / 3.0, 1.0 / 3.0, cv::INTER_AREA);
+      return {out, 95};
+    case QueryChange::kDarker: {  // dusk: a third of the light, crushed shadows, sensor noise
+      cv::Mat f, noise(image.size(), CV_32FC3);
+      image.convertTo(f, CV_32FC3, 1.0 / 255.0);
+      cv::pow(f, 2.2, f);
+      cv::RNG rng(seed);
+      rng.fill(noise, cv::RNG::NORMAL, 0.0, 3.0);
+      f = f * (255.0 * 0.35) + noise;
+      f.convertTo(out, CV_8UC3);
+      return {out, 95};
+    }
+    case QueryChange::kJpeg:  // a bandwidth-starved link
+      return {image.clone(), 8};
+    case QueryChange::kBlur: {  // motion or focus blur: sigma of 3 px at 960 wide
+      const double sigma = 3.0 * image.cols / 960.0;
+      cv::GaussianBlur(image, out, cv::Size(), sigma);
+      return {out, 95};
+    }
+    case QueryChange::kNone:
+      break;
+  }
+  return {image, 95};
+}
+
+// The first `limit` (0 = all) images of a folder.
+StatusOr<std::vector<std::string>> FirstImages(const std::string& dir, int limit) {
+  SCENELOC_ASSIGN_OR_RETURN(std::vector<std::string> paths, ListImageFiles(dir));
+  if (limit > 0 && static_cast<size_t>(limit) < paths.size()) paths.resize(limit);
+  return paths;
+}
+
+// Writes the changed queries once into cache_dir/variants/<set> and returns their paths.
+StatusOr<std::vector<std::string>> ChangedQueries(const SuiteSet& set,
+                                                  const std::vector<std::string>& paths,
+                                                  const std::string& cache_dir) {
+  if (cache_dir.empty()) return InvalidArgument("generated variants need a cache folder");
+  const fs::path dir =
+      fs::path(cache_dir) / "variants" / (set.name + "_" + std::to_string(paths.size()));
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) return IoError("cannot create '" + dir.string() + "': " + ec.message());
+  std::vector<std::string> out;
+  for (size_t i = 0; i < paths.size(); ++i) {
+    const fs::path target = dir / FileName(paths[i]);
+    out.push_back(target.string());
+    if (fs::exists(target)) continue;
+    SCENELOC_ASSIGN_OR_RETURN(const cv::Mat image, ReadImageFile(paths[i]));
+    const auto [changed, quality] = Change(image, set.change, static_cast<uint32_t>(i));
+    const fs::path tmp = target.string() + ".tmp.jpg";
+    if (!cv::imwrite(tmp.string(), changed, {cv::IMWRITE_JPEG_QUALITY, quality})) {
+      return IoError("cannot write '" + tmp.string() + "'");
+    }
+    fs::rename(tmp, target, ec);
+    if (ec) return IoError("cannot write '" + target.string() + "': " + ec.message());
+  }
+  return out;
+}
+
+std::vector<std::string> Names(const std::vector<std::string>& paths) {
+  std::vector<std::string> names;
+  for (const std::string& p : paths) names.push_back(FileName(p));
+  return names;
+}
+
+}  // namespace
+
+const char* QueryChangeName(QueryChange change) {
+  switch (change) {
+    case QueryChange::kNone:
+      return "none";
+    case QueryChange::kSmaller:
+      return "smaller";
+    case QueryChange::kDarker:
+      return "darker";
+    case QueryChange::kJpeg:
+      return "jpeg";
+    case QueryChange::kBlur:
+      return "blur";
+  }
+  return "";
+}
+
+std::vector<SuiteSet> DevelopmentSuite(const std::string& data_dir) {
+  const std::string gp = data_dir + "/gardens_point", corridor = data_dir + "/corridor";
+  std::vector<SuiteSet> all = {
+      {"gp_day", "Gardens Point day: day_left (200) -> day_right", gp + "/day_left", 0,
+       gp + "/day_right", 0, QueryChange::kNone},
+      {"gp_night_same", "Gardens Point night, same side: day_right 000-099 -> night_right",
+       gp + "/day_right", 100, gp + "/night_right", 0, QueryChange::kNone},
+      {"gp_night_other", "Gardens Point night, other side: day_left (200) -> night_right",
+       gp + "/day_left", 0, gp + "/night_right", 0, QueryChange::kNone},
+      {"corridor", "corridor fish-eye 160x120: ref (111) -> query", corridor + "/ref", 0,
+       corridor + "/query", 0, QueryChange::kNone},
+      {"gp_day_smaller", "generated: GP day queries from a camera of 1/3 the resolution",
+       gp + "/day_left", 0, gp + "/day_right", 0, QueryChange::kSmaller},
+      {"gp_day_darker", "generated: GP day queries at dusk (gamma 2.2, 35% light, noise)",
+       gp + "/day_left", 0, gp + "/day_right", 0, QueryChange::kDarker},
+      {"gp_day_jpeg", "generated: GP day queries as JPEG quality 8", gp + "/day_left", 0,
+       gp + "/day_right", 0, QueryChange::kJpeg},
+      {"gp_day_blur", "generated: GP day queries blurred (sigma 3 px at 960 wide)",
+       gp + "/day_left", 0, gp + "/day_right", 0, QueryChange::kBlur},
+  };
+  std::vector<SuiteSet> present;
+  for (const SuiteSet& s : all) {
+    if (fs::is_directory(s.tour_dir) && fs::is_directory(s.queries_dir)) present.push_back(s);
+  }
+  return present;
+}
+
+StatusOr<SetData> LoadSet(const SuiteSet& set, const ExtractorOptions& extractor,
+                          const SuiteContext& context) {
+  SetData d;
+  SCENELOC_ASSIGN_OR_RETURN(const std::vector<std::string> tour_paths,
+                            FirstImages(set.tour_dir, set.tour_limit));
+  SCENELOC_ASSIGN_OR_RETURN(std::vector<std::string> query_paths,
+                            FirstImages(set.queries_dir, set.query_limit));
+  d.tour_names = Names(tour_paths);
+  d.query_names = Names(query_paths);
+  if (set.change != QueryChange::kNone) {
+    SCENELOC_ASSIGN_OR_RETURN(query_paths, ChangedQueries(set, query_paths, context.cache_dir));
+  }
+  SCENELOC_ASSIGN_OR_RETURN(
+      d.tour, ExtractCached(tour_paths, extractor, context.cache_dir, context.threads));
+  ExtractionTarget frame;
+  frame.width = d.tour.front().image_width;
+  frame.height = d.tour.front().image_height;
+  frame.holistic = d.tour.front().holistic_grid;
+  SCENELOC_ASSIGN_OR_RETURN(
+      d.queries, ExtractCached(query_paths, extractor, context.cache_dir, context.threads, &frame));
+  SCENELOC_ASSIGN_OR_RETURN(d.truth, ResolveTruth(d.query_names, d.tour_names, {}));
+  return d;
+}
+
+StatusOr<VariantResult> RunVariant(const SetData& data, const TrainOptions& train,
+                                   const MatchOptions& match, const SuiteContext& context) {
+  VariantResult r;
+  Stopwatch watch;
+  SCENELOC_ASSIGN_OR_RETURN(
+      const TrainResult trained,
+      TrainFromFeatures(data.tour, data.tour_names, train, context.threads, nullptr));
+  r.train_seconds = watch.Seconds();
+  r.landmarks = trained.map.num_landmarks();
+  r.outcomes.resize(data.queries.size());
+  for (size_t q = 0; q < data.queries.size(); ++q) {
+    r.outcomes[q].name = data.query_names[q];
+    r.outcomes[q].truth = data.truth[q];
+  }
+  SCENELOC_RETURN_IF_ERROR(RunOurs(data.queries, trained.map, match, context.threads, &r.outcomes));
+  r.summary = SummariseMethod(r.outcomes, Method::kOurs);
+  return r;
+}
+
+StatusOr<SetResult> RunSet(const SuiteSet& set, const SuiteSettings& settings,
+                           const SuiteContext& context) {
+  SetResult result;
+  result.set = set;
+  SCENELOC_ASSIGN_OR_RETURN(const SetData data, LoadSet(set, settings.train.extractor, context));
+  SCENELOC_ASSIGN_OR_RETURN(VariantResult ours,
+                            RunVariant(data, settings.train, settings.match, context));
+  // The paper's map from the same tour features: its extractor settings are ours.
+  TrainOptions paper_train = settings.paper_train;
+  paper_train.extractor = settings.train.extractor;
+  SCENELOC_ASSIGN_OR_RETURN(const VariantResult paper,
+                            RunVariant(data, paper_train, settings.paper_match, context));
+  result.locations = static_cast<int>(data.tour.size());
+  result.landmarks = ours.landmarks;
+  result.train_seconds = ours.train_seconds;
+  result.outcomes = std::move(ours.outcomes);
+  SCENELOC_RETURN_IF_ERROR(RunBaselines(data.queries, data.tour,
+                                        settings.match.verify_ransac_threshold, &result.outcomes));
+  for (const QueryOutcome& o : paper.outcomes) result.paper_outcomes.push_back(o.ours);
+  result.summary = Summarise(result.outcomes, /*with_baseline=*/true);
+  result.paper = paper.summary;
+  return result;
+}
+
+std::vector<AblationVariant> AblationVariants() {
+  return {
+      {"default", "", ""},
+      {"paper_as_printed", "@paper", "@paper"},
+      {"holistic_only", "", "matching: {verify_weight: 0}"},
+      {"no_holistic", "", "matching: {use_holistic: false}"},
+      {"no_holistic_shift", "", "matching: {holistic_max_shift: 0}"},
+      {"no_verification", "", "matching: {verify_top: 0, use_holistic: false}"},
+      {"no_angle_check", "", "matching: {verify_angle_tolerance: 0}"},
+      {"no_scale_cue", "", "matching: {verify_scale_sigma: 0}"},
+      {"s_d_only", "", "matching: {use_neighbourhood: false}"},
+      {"no_coverage", "tracking: {min_landmarks_per_image: 0}", ""},
+      {"paper_variance_floors", "landmarks: {local_var_floor: 0.02, context_var_floor: 0.002}", ""},
+      {"eta_all", "selection: {eta: 0}", ""},
+      {"working_size_320", "extractor: {working_size: 320}", ""},
+      {"working_size_640", "extractor: {working_size: 640}", ""},
+      {"clahe", "extractor: {clahe_clip: 2.0}", ""},
+      {"root_sift", "extractor: {root_sift: true}", ""},
+      {"contrast_0.04", "extractor: {contrast_threshold: 0.04}", ""},
+      {"contrast_0.01", "extractor: {contrast_threshold: 0.01}", ""},
+  };
+}
+
+}  // namespace sceneloc

@@ -1,0 +1,99 @@
+// The accuracy suite: every development data set, each localised by our default settings,
+// by the paper as printed, by the voting baseline and by the baseline re-ranked by RANSAC
+// inliers, all four on the same features in one run. sceneloc-accuracy prints and writes
+// its results; the real-data floor tests run slices of it.
+//
+// A set is a tour folder, a query folder (truth: the tour image of the same file name) and
+// optionally a change applied to every query image first (a generated variant: a smaller
+// camera, a darker scene, heavy JPEG compression, blur), written as JPEG files once.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "common/map/train_options.h"
+#include "common/matching/localiser.h"
+#include "common/util/status.h"
+#include "tools/eval/evaluation.h"
+
+namespace sceneloc {
+
+// How a variant changes each query image before it is extracted.
+enum class QueryChange { kNone, kSmaller, kDarker, kJpeg, kBlur };
+const char* QueryChangeName(QueryChange change);
+
+struct SuiteSet {
+  std::string name;  // e.g. "gp_night_same"
+  std::string description;
+  std::string tour_dir;
+  int tour_limit = 0;  // the first N tour images (0 = all)
+  std::string queries_dir;
+  int query_limit = 0;  // the first N query images (0 = all)
+  QueryChange change = QueryChange::kNone;
+};
+
+// The development sets under `data_dir` (../shared/data): Gardens Point day, night on the
+// same and on the other side of the path, the corridor, and four generated variants of the
+// Gardens Point day queries. Sets whose folders are missing are left out.
+std::vector<SuiteSet> DevelopmentSuite(const std::string& data_dir);
+
+// The settings of the two engine rows: our defaults and the paper as printed.
+struct SuiteSettings {
+  TrainOptions train;
+  MatchOptions match;
+  TrainOptions paper_train;
+  MatchOptions paper_match;
+};
+
+struct SetResult {
+  SuiteSet set;
+  int locations = 0;
+  int landmarks = 0;
+  double train_seconds = 0;
+  size_t tour_mixed_sizes = 0;
+  EvalSummary summary;                 // ours, the baseline and the re-ranked baseline
+  MethodSummary paper;                 // the paper as printed
+  std::vector<QueryOutcome> outcomes;  // per query (ours, baselines)
+  std::vector<MethodOutcome> paper_outcomes;
+};
+
+struct SuiteContext {
+  std::string cache_dir;  // extracted features and generated variants ("" = no cache)
+  int threads = 2;
+};
+
+// Trains both maps of one set from the same tour features and localises its queries with
+// all four methods. Errors: unreadable folders or images, a tour that cannot be trained.
+StatusOr<SetResult> RunSet(const SuiteSet& set, const SuiteSettings& settings,
+                           const SuiteContext& context);
+
+// A set's features, extracted (or read from the cache) with one extractor's settings.
+struct SetData {
+  std::vector<FeatureSet> tour, queries;
+  std::vector<std::string> tour_names, query_names;
+  std::vector<int> truth;
+};
+StatusOr<SetData> LoadSet(const SuiteSet& set, const ExtractorOptions& extractor,
+                          const SuiteContext& context);
+
+// One engine variant on a loaded set: trains with `train` (whose extractor settings must be
+// those the data was extracted with) and localises every query with `match`.
+struct VariantResult {
+  MethodSummary summary;
+  std::vector<QueryOutcome> outcomes;
+  int landmarks = 0;
+  double train_seconds = 0;
+};
+StatusOr<VariantResult> RunVariant(const SetData& data, const TrainOptions& train,
+                                   const MatchOptions& match, const SuiteContext& context);
+
+// The ablation: our defaults, the paper as printed and each of our departures taken away
+// (or a lighting option added) one at a time, as YAML overrides of the two settings files.
+struct AblationVariant {
+  std::string name;
+  std::string train_yaml;
+  std::string match_yaml;
+};
+std::vector<AblationVariant> AblationVariants();
+
+}  // namespace sceneloc
