@@ -68,21 +68,26 @@ class ZmqClient final : public Client {
   }
 
   StatusOr<v1::LocaliseReply> Localise(const std::string& map, const std::string& jpeg,
-                                       int top_k) override {
-    v1::Request request;
-    request.mutable_localise()->set_map(map);
-    request.mutable_localise()->set_top_k(top_k);
+                                       const LocaliseOptions& options) override {
+    v1::Request request = LocaliseRequest(map, options);
     request.mutable_localise()->set_jpeg(jpeg);
     return Typed(std::move(request), &v1::Reply::localise);
   }
 
   StatusOr<v1::LocaliseReply> Localise(const std::string& map, const FeatureSet& features,
-                                       DescriptorEncoding encoding, int top_k) override {
+                                       const LocaliseOptions& options) override {
+    v1::Request request = LocaliseRequest(map, options);
+    EncodeFeatureSet(features, options.encoding, request.mutable_localise()->mutable_features());
+    return Typed(std::move(request), &v1::Reply::localise);
+  }
+
+  static v1::Request LocaliseRequest(const std::string& map, const LocaliseOptions& options) {
     v1::Request request;
     request.mutable_localise()->set_map(map);
-    request.mutable_localise()->set_top_k(top_k);
-    EncodeFeatureSet(features, encoding, request.mutable_localise()->mutable_features());
-    return Typed(std::move(request), &v1::Reply::localise);
+    request.mutable_localise()->set_top_k(options.top_k);
+    if (options.min_confidence)
+      request.mutable_localise()->set_min_confidence(*options.min_confidence);
+    return request;
   }
 
   StatusOr<v1::ListMapsReply> ListMaps() override {

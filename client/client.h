@@ -13,6 +13,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "common/features/feature_set.h"
@@ -21,6 +22,16 @@
 #include "proto/wire.h"
 
 namespace sceneloc {
+
+// Per-request settings of a localise call.
+struct LocaliseOptions {
+  int top_k = 0;  // ranked locations wanted; 0 = the server's default
+  // Answers below this confidence come back with decision UNKNOWN; unset = the server's
+  // matching.min_confidence. Outside [0, 1] the server replies INVALID_ARGUMENT.
+  std::optional<float> min_confidence;
+  // How a feature set's descriptors travel (feature-set calls only).
+  DescriptorEncoding encoding = DescriptorEncoding::kFloat32;
+};
 
 struct ClientOptions {
   // How long one attempt waits for its reply, milliseconds (>= 1).
@@ -46,13 +57,12 @@ class Client {
   virtual StatusOr<v1::Reply> Call(v1::Request request) = 0;
 
   // The typed calls: an error reply becomes a status whose message starts with the wire
-  // status name ("NOT_FOUND: no map named 'x'"), with the nearest engine code.
-  // top_k = 0 asks for the server's default.
+  // status name ("NOT_FOUND: no map named 'x'"), with the nearest engine code. A place the
+  // map does not know is not an error: the reply's decision() is v1::UNKNOWN.
   virtual StatusOr<v1::LocaliseReply> Localise(const std::string& map, const std::string& jpeg,
-                                               int top_k = 0) = 0;
-  virtual StatusOr<v1::LocaliseReply> Localise(
-      const std::string& map, const FeatureSet& features,
-      DescriptorEncoding encoding = DescriptorEncoding::kFloat32, int top_k = 0) = 0;
+                                               const LocaliseOptions& options = {}) = 0;
+  virtual StatusOr<v1::LocaliseReply> Localise(const std::string& map, const FeatureSet& features,
+                                               const LocaliseOptions& options = {}) = 0;
   virtual StatusOr<v1::ListMapsReply> ListMaps() = 0;
   virtual StatusOr<v1::ReloadMapReply> Reload(const std::string& map) = 0;
   virtual StatusOr<v1::StatsReply> Stats() = 0;

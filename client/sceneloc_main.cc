@@ -39,10 +39,11 @@ void PrintAnswer(const std::string& query, const v1::LocaliseReply& r) {
     return;
   }
   const v1::RankedLocation& best = r.locations(0);
-  std::printf("%s\t%d\t%s\tlikelihood %.4f\tconfidence %.3f\tmap %s@%llu\t%.1f ms\n", query.c_str(),
-              best.index(), best.image_name().c_str(), best.likelihood(), r.confidence(),
-              r.map().name().c_str(), static_cast<unsigned long long>(r.map().generation()),
-              r.timings().total_ms());
+  std::printf("%s\t%d\t%s\t%s\tconfidence %.3f\tlikelihood %.4f\tmap %s@%llu\t%.1f ms\n",
+              query.c_str(), best.index(), best.image_name().c_str(),
+              r.decision() == v1::LOCALISED ? "LOCALISED" : "UNKNOWN", r.confidence(),
+              best.likelihood(), r.map().name().c_str(),
+              static_cast<unsigned long long>(r.map().generation()), r.timings().total_ms());
 }
 
 StatusOr<std::unique_ptr<sceneloc::Client>> Connect(const std::string& server, int timeout_ms) {
@@ -53,7 +54,8 @@ StatusOr<std::unique_ptr<sceneloc::Client>> Connect(const std::string& server, i
 
 // Localises each input (a JPEG or a feature-set file); returns the exit status.
 int RunLocalise(sceneloc::Client* client, const std::string& map,
-                const std::vector<std::string>& inputs, bool features, int top_k) {
+                const std::vector<std::string>& inputs, bool features,
+                const sceneloc::LocaliseOptions& options) {
   int status = 0;
   for (const std::string& input : inputs) {
     auto bytes = ReadFile(input);
@@ -65,7 +67,10 @@ int RunLocalise(sceneloc::Client* client, const std::string& map,
     if (features) {
       v1::Request request;
       request.mutable_localise()->set_map(map);
-      request.mutable_localise()->set_top_k(top_k);
+      request.mutable_localise()->set_top_k(options.top_k);
+      if (options.min_confidence) {
+        request.mutable_localise()->set_min_confidence(*options.min_confidence);
+      }
       if (!request.mutable_localise()->mutable_features()->ParseFromString(*bytes)) {
         std::fprintf(stderr, "sceneloc: '%s' is not a feature-set file\n", input.c_str());
         return 2;
@@ -75,7 +80,7 @@ int RunLocalise(sceneloc::Client* client, const std::string& map,
               : raw->status() != v1::OK ? StatusOr<v1::LocaliseReply>(sceneloc::ReplyStatus(*raw))
                                         : StatusOr<v1::LocaliseReply>(raw->localise());
     } else {
-      reply = client->Localise(map, *bytes, top_k);
+      reply = client->Localise(map, *bytes, options);
     }
     if (!reply.ok()) {
       std::printf("%s\terror\t%s\n", input.c_str(), reply.status().message().c_str());
@@ -121,11 +126,13 @@ int RunExtract(const std::string& image_path, const std::string& out_path,
 
 void PrintMaps(const google::protobuf::RepeatedPtrField<v1::MapInfo>& maps) {
   for (const v1::MapInfo& m : maps) {
-    std::printf("%s\tgeneration %llu\tchecksum %08x\t%d locations\t%d landmarks\t%.1f MB\t%s\n",
-                m.version().name().c_str(),
-                static_cast<unsigned long long>(m.version().generation()), m.version().checksum(),
-                m.num_locations(), m.num_landmarks(), static_cast<double>(m.memory_bytes()) / 1e6,
-                m.loaded_utc().c_str());
+    std::printf(
+        "%s\tgeneration %llu\tchecksum %08x\t%d locations\t%d landmarks\t%.1f MB\t%s\t"
+        "confidence %s (±%d)\n",
+        m.version().name().c_str(), static_cast<unsigned long long>(m.version().generation()),
+        m.version().checksum(), m.num_locations(), m.num_landmarks(),
+        static_cast<double>(m.memory_bytes()) / 1e6, m.loaded_utc().c_str(),
+        m.confidence_model().c_str(), m.tolerance());
   }
 }
 
@@ -137,7 +144,9 @@ int main(int argc, char** argv) {
   std::string server, map, out, config;
   std::vector<std::string> inputs;
   bool features = false, uint8 = false;
-  int top_k = 0, timeout_ms = 10000;
+  int timeout_ms = 10000;
+  sceneloc::LocaliseOptions localise_options;
+  float min_confidence = -1;
   sceneloc::ClientExtractorSource extract_source;
 
   CLI::App* localise = app.add_subcommand("localise", "localise images (or feature sets)");
@@ -145,7 +154,12 @@ int main(int argc, char** argv) {
       ->required();
   localise->add_option("--map", map, "map name")->required();
   localise->add_flag("--features", features, "the inputs are feature-set files (sceneloc extract)");
-  localise->add_option("--top-k", top_k, "ranked locations wanted (0 = server default)");
+  localise->add_option("--top-k", localise_options.top_k,
+                       "ranked locations wanted (0 = server default)");
+  localise
+      ->add_option("--min-confidence", min_confidence,
+                   "answers below this are UNKNOWN (default: the server's)")
+      ->check(CLI::Range(0.0, 1.0));
   localise->add_option("--timeout-ms", timeout_ms, "per attempt");
   localise->add_option("inputs", inputs, "JPEG images, or feature-set files with --features")
       ->required();
@@ -200,7 +214,10 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "sceneloc: %s\n", client.status().message().c_str());
     return 2;
   }
-  if (localise->parsed()) return RunLocalise(client->get(), map, inputs, features, top_k);
+  if (min_confidence >= 0) localise_options.min_confidence = min_confidence;
+  if (localise->parsed()) {
+    return RunLocalise(client->get(), map, inputs, features, localise_options);
+  }
   if (maps->parsed()) {
     auto reply = (*client)->ListMaps();
     if (!reply.ok()) {

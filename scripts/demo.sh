@@ -2,7 +2,9 @@
 # sceneloc end to end, the way a robot uses it: installs and builds, generates a synthetic
 # tour and a laterally shifted test pass, trains a landmark map, starts sceneloc-server on
 # a free local port, localises every test frame through the `sceneloc` client, prints the
-# answers and the match rate (answer within ±1 of the true location), and stops the server.
+# answers (location, LOCALISED or UNKNOWN, confidence), the match rate (answer within ±1 of
+# the true location) and how many answers were confident enough to act on, and stops the
+# server.
 # Usage: scripts/demo.sh [WORK_DIR]   (default: ./demo-out)
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -64,7 +66,9 @@ awk -F'\t' -v tolerance=1 '
   { n++
     name = $1; sub(/.*\//, "", name); gsub(/[^0-9]/, "", name)
     if ($2 ~ /^[0-9]+$/ && ($2 - name <= tolerance && name - $2 <= tolerance)) hits++ }
-  END { printf "match rate (within ±%d): %d / %d = %.2f\n", tolerance, hits, n, n ? hits / n : 0 }
+  $4 == "LOCALISED" { localised++ }
+  END { printf "match rate (within ±%d): %d / %d = %.2f; LOCALISED (confidence >= the server'"'"'s min_confidence): %d / %d\n",
+               tolerance, hits, n, n ? hits / n : 0, localised, n }
 ' "$answers"
 ((status == 0)) || echo "demo: some requests got an error reply (see above)" >&2
 

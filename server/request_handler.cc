@@ -56,7 +56,8 @@ StatusOr<FeatureSet> ExtractJpeg(const std::string& jpeg, const LoadedMap& map,
   return features;
 }
 
-void FillResult(const LocaliseResult& result, const LoadedMap& map, v1::LocaliseReply* reply) {
+void FillResult(const LocaliseResult& result, const LoadedMap& map, const MatchOptions& match,
+                v1::LocaliseReply* reply) {
   for (const RankedLocation& r : result.ranked) {
     v1::RankedLocation* out = reply->add_locations();
     out->set_index(r.index);
@@ -65,6 +66,10 @@ void FillResult(const LocaliseResult& result, const LoadedMap& map, v1::Localise
     out->set_inliers(r.inliers);
   }
   reply->set_confidence(result.confidence);
+  reply->set_decision(result.decision == Decision::kLocalised ? v1::LOCALISED : v1::UNKNOWN);
+  reply->set_confidence_model(ConfidenceModelName(result.confidence_model));
+  reply->set_min_confidence(static_cast<float>(match.min_confidence));
+  reply->set_tolerance(map.map.options.tolerance);
   reply->mutable_map()->set_name(map.name);
   reply->mutable_map()->set_generation(map.generation);
   reply->mutable_map()->set_checksum(map.checksum);
@@ -73,6 +78,7 @@ void FillResult(const LocaliseResult& result, const LoadedMap& map, v1::Localise
   t->set_descriptor_ms(result.timings.descriptor_ms);
   t->set_neighbourhood_ms(result.timings.neighbourhood_ms);
   t->set_likelihood_ms(result.timings.likelihood_ms);
+  t->set_holistic_ms(result.timings.holistic_ms);
   t->set_verify_ms(result.timings.verify_ms);
 }
 
@@ -87,6 +93,9 @@ void FillMapInfo(const LoadedMap& map, v1::MapInfo* info) {
   info->set_num_landmarks(map.map.num_landmarks());
   info->set_memory_bytes(map.map.MemoryBytes());
   info->set_loaded_utc(IsoUtc(map.loaded_at));
+  info->set_confidence_model(
+      ConfidenceModelName(SupportedModel(map.map, ConfidenceModel::kCalibrated)));
+  info->set_tolerance(map.map.options.tolerance);
 }
 
 RequestHandler::RequestHandler(const ServerOptions& options, MapRegistry* registry,
@@ -141,6 +150,11 @@ Status RequestHandler::HandleLocalise(const v1::LocaliseRequest& request,
     return InvalidArgument("top_k must be in [0, " + std::to_string(options_.limits.max_top_k) +
                            "] (0 = the server's default)");
   }
+  if (request.has_min_confidence() &&
+      !(request.min_confidence() >= 0.0f && request.min_confidence() <= 1.0f)) {
+    return InvalidArgument("min_confidence must be in [0, 1], got " +
+                           std::to_string(request.min_confidence()));
+  }
   // The one snapshot this request uses from here to its reply.
   const std::shared_ptr<const LoadedMap> map = registry_->Get(request.map());
   if (map == nullptr) return NotFound("no map named '" + request.map() + "'");
@@ -158,9 +172,10 @@ Status RequestHandler::HandleLocalise(const v1::LocaliseRequest& request,
 
   MatchOptions match = options_.matching;
   if (request.top_k() > 0) match.top_k = request.top_k();
+  if (request.has_min_confidence()) match.min_confidence = request.min_confidence();
   SCENELOC_ASSIGN_OR_RETURN(const LocaliseResult result,
                             Localise(*features, map->map, match, pool_));
-  FillResult(result, *map, reply);
+  FillResult(result, *map, match, reply);
   reply->set_num_features(static_cast<uint32_t>(features->size()));
   v1::Timings* t = reply->mutable_timings();
   t->set_queue_ms(timings.queue_ms());

@@ -16,6 +16,7 @@
 #include "common/config/config.h"
 #include "common/util/timer.h"
 #include "tools/eval/accuracy_suite.h"
+#include "tools/eval/reliability_plot.h"
 
 namespace {
 
@@ -38,11 +39,28 @@ std::vector<Row> Rows(const sl::SetResult& r) {
           {"baseline+ransac", &r.summary.reranked}};
 }
 
+nlohmann::json ConfidenceJson(const sl::ConfidenceMetrics& c) {
+  nlohmann::json bins = nlohmann::json::array();
+  for (const sl::ReliabilityBin& b : c.bins) {
+    bins.push_back(
+        {{"count", b.count}, {"confidence", b.mean_confidence}, {"accuracy", b.accuracy}});
+  }
+  return {{"pr_auc", c.pr_auc},
+          {"recall_at_100_precision", c.recall_at_100_precision},
+          {"ece", c.ece},
+          {"ece_floor", c.ece_floor},
+          {"threshold", c.threshold},
+          {"correct_accepted", c.correct_accepted},
+          {"accepted_precision", c.accepted_precision},
+          {"reliability_bins", bins}};
+}
+
 nlohmann::json MethodJson(const sl::MethodSummary& m) {
   nlohmann::json rates;
   for (int k = 0; k <= sl::kMaxTolerance; ++k) rates[std::to_string(k)] = m.match_rate[k];
   return {{"match_rate", rates},
           {"mean_confidence", m.mean_confidence},
+          {"confidence", ConfidenceJson(m.confidence)},
           {"match_ms",
            {{"median", m.match_ms.median}, {"p90", m.match_ms.p90}, {"p99", m.match_ms.p99}}}};
 }
@@ -75,6 +93,10 @@ nlohmann::json SetJson(const sl::SetResult& r) {
           {"train_s", r.train_seconds},
           {"extract_ms_median", r.summary.extract_ms.median},
           {"methods", methods},
+          {"negatives",
+           {{"frames", r.negatives},
+            {"accepted", r.negatives_accepted},
+            {"max_confidence", r.negatives_max_confidence}}},
           {"per_query", QueriesJson(r)}};
 }
 
@@ -148,6 +170,33 @@ int RunAblation(const std::vector<sl::SuiteSet>& sets, const sl::SuiteSettings& 
   return 0;
 }
 
+// The confidence of every set: ours and the baselines' (vote share), with our out-of-map
+// frames.
+void PrintConfidenceTable(const std::vector<sl::SetResult>& results, double threshold) {
+  std::printf(
+      "\nconfidence: correct = within the map's tolerance; accepted = sceneloc's confidence >= "
+      "%.2f; baselines score by vote (or inlier) share\n",
+      threshold);
+  std::printf("%-16s %-16s %7s %7s %14s %9s %9s %12s\n", "set", "method", "PR-AUC", "R@100P",
+              "ECE (floor)", "accepted", "precision", "out-of-map");
+  for (const sl::SetResult& r : results) {
+    bool first = true;
+    for (const Row& row : Rows(r)) {
+      if (row.method == "paper") continue;
+      const sl::ConfidenceMetrics& c = row.summary->confidence;
+      std::string negatives = "";
+      if (first && r.negatives > 0) {
+        negatives = std::to_string(r.negatives_accepted) + "/" + std::to_string(r.negatives);
+      }
+      std::printf("%-16s %-16s %7.3f %7.2f %6.3f (%.3f) %9.2f %9.2f %12s\n",
+                  first ? r.set.name.c_str() : "", row.method.c_str(), c.pr_auc,
+                  c.recall_at_100_precision, c.ece, c.ece_floor, c.correct_accepted,
+                  c.accepted_precision, negatives.c_str());
+      first = false;
+    }
+  }
+}
+
 std::string Hostname() {
   char name[256] = {0};
   gethostname(name, sizeof(name) - 1);
@@ -211,7 +260,8 @@ int main(int argc, char** argv) {
   if (ablation) return RunAblation(sets, settings, variants, context, out_dir);
   std::ofstream csv(out_dir + "/accuracy.csv");
   if (!csv) return Fail("cannot write to '" + out_dir + "'");
-  csv << "set,method,queries,rate0,rate1,rate2,rate3,match_ms_median,match_ms_p90\n";
+  csv << "set,method,queries,rate0,rate1,rate2,rate3,match_ms_median,match_ms_p90,pr_auc,"
+         "recall_at_100_precision,ece,ece_floor,correct_accepted\n";
 
   nlohmann::json json = {{"host", Hostname()},
                          {"threads", context.threads},
@@ -220,6 +270,8 @@ int main(int argc, char** argv) {
                          {"match_settings", sl::MatchOptionsToYaml(settings.match)},
                          {"sets", nlohmann::json::array()}};
   sl::Stopwatch total;
+  std::vector<sl::SetResult> results;
+  std::vector<sl::ReliabilityPanel> panels;
   PrintHeader();
   for (const sl::SuiteSet& set : sets) {
     std::fprintf(stderr, "sceneloc-accuracy: %s ...\n", set.name.c_str());
@@ -231,12 +283,21 @@ int main(int argc, char** argv) {
       const sl::MethodSummary& m = *row.summary;
       csv << set.name << ',' << row.method << ',' << result->outcomes.size() << ','
           << m.match_rate[0] << ',' << m.match_rate[1] << ',' << m.match_rate[2] << ','
-          << m.match_rate[3] << ',' << m.match_ms.median << ',' << m.match_ms.p90 << '\n';
+          << m.match_rate[3] << ',' << m.match_ms.median << ',' << m.match_ms.p90 << ','
+          << m.confidence.pr_auc << ',' << m.confidence.recall_at_100_precision << ','
+          << m.confidence.ece << ',' << m.confidence.ece_floor << ','
+          << m.confidence.correct_accepted << '\n';
     }
+    panels.push_back({set.name + ": sceneloc", result->summary.ours.confidence});
+    results.push_back(std::move(result).value());
+  }
+  PrintConfidenceTable(results, settings.match.min_confidence);
+  if (sl::Status w = sl::WriteReliabilityDiagram(panels, out_dir + "/reliability.png"); !w.ok()) {
+    return Fail(w.message());
   }
   json["elapsed_s"] = total.Seconds();
   std::ofstream(out_dir + "/accuracy.json") << json.dump(1) << "\n";
-  std::printf("%zu sets in %.0f s; %s/accuracy.json, %s/accuracy.csv\n", sets.size(),
-              total.Seconds(), out_dir.c_str(), out_dir.c_str());
+  std::printf("%zu sets in %.0f s; %s/accuracy.json, accuracy.csv, reliability.png\n", sets.size(),
+              total.Seconds(), out_dir.c_str());
   return 0;
 }

@@ -1,6 +1,7 @@
 // sceneloc-eval: how well a map localises a folder of query images, beside the baseline.
 //   sceneloc-eval --map FILE --queries DIR [--ground-truth CSV] [--tolerance N]
-//                 [--baseline [--tour DIR]] [--threads N] [--config match.yaml] [--json OUT]
+//                 [--baseline [--tour DIR]] [--negatives DIR] [--threads N]
+//                 [--config match.yaml] [--json OUT] [--reliability PNG] [--show]
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <cstdlib>
@@ -14,21 +15,99 @@
 #include "common/util/image_folder.h"
 #include "common/util/timer.h"
 #include "tools/eval/evaluation.h"
+#include "tools/eval/reliability_plot.h"
 
 namespace {
 
-using sceneloc::EvalSummary;
-using sceneloc::MethodSummary;
-using sceneloc::Percentiles;
+namespace sl = sceneloc;
+using sl::EvalSummary;
+using sl::MethodSummary;
+using sl::Percentiles;
 
 int Fail(const std::string& message) {
   std::fprintf(stderr, "sceneloc-eval: %s\n", message.c_str());
   return 1;
 }
 
+struct Args {
+  std::string map_path, queries_dir, truth_csv, tour_dir, negatives_dir, json_path, config_path;
+  std::string reliability_png;
+  int tolerance = 2;
+  bool with_baseline = false;
+  bool show = false;
+  int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+};
+
+// The images of a folder extracted in the map's frame, one at a time (so extract times are
+// those of one frame on one core); warns when their sizes differ.
+sl::StatusOr<std::vector<sl::FeatureSet>> ExtractQueries(const std::vector<std::string>& paths,
+                                                         const sl::Map& map,
+                                                         std::vector<double>* extract_ms) {
+  const auto extractor = sl::FeatureExtractor::Create(map.options.extractor);
+  std::vector<sl::FeatureSet> queries;
+  cv::Size first_size;
+  size_t mixed_sizes = 0;
+  for (size_t q = 0; q < paths.size(); ++q) {
+    SCENELOC_ASSIGN_OR_RETURN(const cv::Mat image, sl::ReadImageFile(paths[q]));
+    if (q == 0) first_size = image.size();
+    if (image.size() != first_size) ++mixed_sizes;
+    sl::Stopwatch watch;
+    auto features = extractor->Extract(image, map.QueryTarget(image.cols, image.rows));
+    if (!features.ok()) {
+      return sl::Status(features.status().code(), paths[q] + ": " + features.status().message());
+    }
+    if (extract_ms != nullptr) extract_ms->push_back(watch.Milliseconds());
+    queries.push_back(std::move(features).value());
+  }
+  if (mixed_sizes > 0) {
+    std::fprintf(stderr,
+                 "sceneloc-eval: warning: %zu of %zu images differ in size from the first "
+                 "(%dx%d); each is brought into the map's frame\n",
+                 mixed_sizes, paths.size(), first_size.width, first_size.height);
+  }
+  return queries;
+}
+
+// The map's tour, extracted as the map's, for the baselines.
+sl::StatusOr<std::vector<sl::FeatureSet>> BaselineTour(const Args& args, const sl::Map& map) {
+  const std::string dir = args.tour_dir.empty() ? map.provenance.tour_dir : args.tour_dir;
+  auto paths = sl::ListImageFiles(dir);
+  if (!paths.ok()) return sl::NotFound("baseline tour: " + paths.status().message());
+  std::vector<std::string> names;
+  for (const auto& p : *paths) names.push_back(sl::FileName(p));
+  if (names != map.image_names) {
+    return sl::InvalidArgument("baseline tour '" + dir + "' does not hold the map's tour images");
+  }
+  return sl::ExtractFolder(*paths, map.options.extractor, args.threads, nullptr);
+}
+
+// Frames of places that are not on the route: how many would be LOCALISED.
+struct Negatives {
+  size_t frames = 0;
+  size_t accepted = 0;
+  float max_confidence = 0;
+};
+
+sl::StatusOr<Negatives> RunNegatives(const Args& args, const sl::Map& map,
+                                     const sl::MatchOptions& options) {
+  SCENELOC_ASSIGN_OR_RETURN(const std::vector<std::string> paths,
+                            sl::ListImageFiles(args.negatives_dir));
+  SCENELOC_ASSIGN_OR_RETURN(const std::vector<sl::FeatureSet> frames,
+                            ExtractQueries(paths, map, nullptr));
+  Negatives n;
+  sl::ThreadPool pool(args.threads);
+  for (const sl::FeatureSet& f : frames) {
+    SCENELOC_ASSIGN_OR_RETURN(const sl::LocaliseResult r, sl::Localise(f, map, options, &pool));
+    ++n.frames;
+    n.accepted += r.decision == sl::Decision::kLocalised;
+    n.max_confidence = std::max(n.max_confidence, r.confidence);
+  }
+  return n;
+}
+
 nlohmann::json RatesJson(const MethodSummary& m) {
   nlohmann::json rates;
-  for (int k = 0; k <= sceneloc::kMaxTolerance; ++k) rates[std::to_string(k)] = m.match_rate[k];
+  for (int k = 0; k <= sl::kMaxTolerance; ++k) rates[std::to_string(k)] = m.match_rate[k];
   return rates;
 }
 
@@ -36,12 +115,68 @@ nlohmann::json PercentilesJson(const Percentiles& p) {
   return {{"median", p.median}, {"p90", p.p90}, {"p99", p.p99}};
 }
 
-nlohmann::json ReportJson(const EvalSummary& s, const std::vector<sceneloc::QueryOutcome>& out,
-                          double load_ms, size_t map_memory_bytes) {
-  nlohmann::json j;
+nlohmann::json ConfidenceJson(const sl::ConfidenceMetrics& c) {
+  nlohmann::json bins = nlohmann::json::array();
+  for (const sl::ReliabilityBin& b : c.bins) {
+    bins.push_back(
+        {{"count", b.count}, {"confidence", b.mean_confidence}, {"accuracy", b.accuracy}});
+  }
+  return {{"pr_auc", c.pr_auc},
+          {"recall_at_100_precision", c.recall_at_100_precision},
+          {"ece", c.ece},
+          {"ece_floor", c.ece_floor},
+          {"threshold", c.threshold},
+          {"correct_accepted", c.correct_accepted},
+          {"accepted_precision", c.accepted_precision},
+          {"accepted", c.accepted},
+          {"reliability_bins", bins}};
+}
+
+nlohmann::json MethodJson(const MethodSummary& m) {
+  return {{"match_rate", RatesJson(m)},
+          {"mean_confidence", m.mean_confidence},
+          {"confidence", ConfidenceJson(m.confidence)},
+          {"timing_ms", {{"match", PercentilesJson(m.match_ms)}}}};
+}
+
+nlohmann::json QueryJson(const sl::QueryOutcome& o, bool with_baseline) {
+  nlohmann::json q = {{"query", o.name},
+                      {"truth", o.truth},
+                      {"predicted", o.ours.predicted},
+                      {"confidence", o.ours.confidence},
+                      {"extract_ms", o.extract_ms},
+                      {"match_ms", o.ours.ms},
+                      {"keypoints", o.keypoints},
+                      {"descriptor_matches", o.descriptor_matches},
+                      {"location_scores", o.location_scores},
+                      {"candidates", nlohmann::json::array()}};
+  if (with_baseline) {
+    q["baseline_predicted"] = o.baseline.predicted;
+    q["baseline_confidence"] = o.baseline.confidence;
+    q["baseline_reranked_predicted"] = o.reranked.predicted;
+    q["baseline_reranked_confidence"] = o.reranked.confidence;
+  }
+  for (const sl::CandidateEvidence& c : o.candidates) {
+    q["candidates"].push_back({{"location", c.location},
+                               {"likelihood", c.likelihood},
+                               {"holistic", c.holistic},
+                               {"holistic_rank", c.holistic_rank},
+                               {"holistic_z", c.holistic_z},
+                               {"correspondences", c.correspondences},
+                               {"inliers", c.inliers},
+                               {"log_scale", c.log_scale},
+                               {"score", c.score}});
+  }
+  return q;
+}
+
+nlohmann::json ReportJson(const EvalSummary& s, const std::vector<sl::QueryOutcome>& out,
+                          double load_ms, const sl::Map& map, const sl::MatchOptions& options,
+                          const Negatives* negatives) {
+  nlohmann::json j = MethodJson(s.ours);
   j["queries"] = s.queries;
-  j["match_rate"] = RatesJson(s.ours);
-  j["mean_confidence"] = s.ours.mean_confidence;
+  j["confidence_model"] = sl::ConfidenceModelName(
+      sl::SupportedModel(map, *sl::ParseConfidenceModel(options.confidence_model)));
   j["timing_ms"] = {{"extract", PercentilesJson(s.extract_ms)},
                     {"match", PercentilesJson(s.ours.match_ms)},
                     {"descriptor", PercentilesJson(s.descriptor_ms)},
@@ -50,46 +185,18 @@ nlohmann::json ReportJson(const EvalSummary& s, const std::vector<sceneloc::Quer
                     {"holistic", PercentilesJson(s.holistic_ms)},
                     {"verify", PercentilesJson(s.verify_ms)},
                     {"map_load", load_ms}};
-  j["map_memory_bytes"] = map_memory_bytes;
+  j["map_memory_bytes"] = map.MemoryBytes();
   if (s.has_baseline) {
-    j["baseline"] = {{"match_rate", RatesJson(s.baseline)},
-                     {"mean_confidence", s.baseline.mean_confidence},
-                     {"timing_ms", {{"match", PercentilesJson(s.baseline.match_ms)}}}};
-    j["baseline_reranked"] = {{"match_rate", RatesJson(s.reranked)},
-                              {"mean_confidence", s.reranked.mean_confidence},
-                              {"timing_ms", {{"match", PercentilesJson(s.reranked.match_ms)}}}};
+    j["baseline"] = MethodJson(s.baseline);
+    j["baseline_reranked"] = MethodJson(s.reranked);
+  }
+  if (negatives != nullptr) {
+    j["negatives"] = {{"frames", negatives->frames},
+                      {"accepted", negatives->accepted},
+                      {"max_confidence", negatives->max_confidence}};
   }
   j["per_query"] = nlohmann::json::array();
-  for (const auto& o : out) {
-    nlohmann::json q = {{"query", o.name},
-                        {"truth", o.truth},
-                        {"predicted", o.ours.predicted},
-                        {"confidence", o.ours.confidence},
-                        {"extract_ms", o.extract_ms},
-                        {"match_ms", o.ours.ms}};
-    if (s.has_baseline) {
-      q["baseline_predicted"] = o.baseline.predicted;
-      q["baseline_confidence"] = o.baseline.confidence;
-      q["baseline_reranked_predicted"] = o.reranked.predicted;
-      q["baseline_reranked_confidence"] = o.reranked.confidence;
-    }
-    q["keypoints"] = o.keypoints;
-    q["descriptor_matches"] = o.descriptor_matches;
-    q["location_scores"] = o.location_scores;
-    q["candidates"] = nlohmann::json::array();
-    for (const sceneloc::CandidateEvidence& c : o.candidates) {
-      q["candidates"].push_back({{"location", c.location},
-                                 {"likelihood", c.likelihood},
-                                 {"holistic", c.holistic},
-                                 {"holistic_rank", c.holistic_rank},
-                                 {"holistic_z", c.holistic_z},
-                                 {"correspondences", c.correspondences},
-                                 {"inliers", c.inliers},
-                                 {"log_scale", c.log_scale},
-                                 {"score", c.score}});
-    }
-    j["per_query"].push_back(q);
-  }
+  for (const auto& o : out) j["per_query"].push_back(QueryJson(o, s.has_baseline));
   return j;
 }
 
@@ -100,121 +207,57 @@ void PrintMethod(const char* name, const MethodSummary& m, int tolerance) {
       m.match_ms.median, m.match_ms.p90, tolerance, m.match_rate[tolerance]);
 }
 
-void PrintAnswers(const std::vector<sceneloc::QueryOutcome>& outcomes,
-                  const std::vector<std::string>& tour_names, int tolerance) {
+void PrintConfidence(const char* name, const MethodSummary& m) {
+  const sl::ConfidenceMetrics& c = m.confidence;
+  std::printf("%-9s  %6.3f  %6.2f  %5.3f (%5.3f)   %5.2f            %5.2f\n", name, c.pr_auc,
+              c.recall_at_100_precision, c.ece, c.ece_floor, c.correct_accepted,
+              c.accepted_precision);
+}
+
+void PrintAnswers(const std::vector<sl::QueryOutcome>& outcomes,
+                  const std::vector<std::string>& tour_names, int tolerance, double threshold) {
   for (const auto& o : outcomes) {
     if (o.ours.predicted < 0) {
-      std::printf("%-16s -> no answer (no landmark matched)\n", o.name.c_str());
+      std::printf("%-16s -> no answer\n", o.name.c_str());
       continue;
     }
     const int off = o.ours.predicted - o.truth;
-    std::printf("%-16s -> tour location %3d (%s), confidence %.2f  [truth %d, %s]\n",
+    std::printf("%-16s -> tour location %3d (%s), confidence %.2f %-9s [truth %d, %s]\n",
                 o.name.c_str(), o.ours.predicted, tour_names[o.ours.predicted].c_str(),
-                o.ours.confidence, o.truth, std::abs(off) <= tolerance ? "ok" : "MISS");
+                o.ours.confidence, o.ours.confidence >= threshold ? "LOCALISED" : "UNKNOWN",
+                o.truth, std::abs(off) <= tolerance ? "ok" : "MISS");
   }
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  CLI::App app{"sceneloc-eval: match rate, confidence and timing of a map on a query folder"};
-  std::string map_path, queries_dir, truth_csv, tour_dir, json_path, config_path;
-  int tolerance = 2;
-  bool with_baseline = false;
-  bool show = false;
-  int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  app.add_option("--map", map_path, "map file")->required();
-  app.add_option("--queries", queries_dir, "folder of query images")->required();
-  app.add_option("--ground-truth", truth_csv, "CSV of query_file,tour_file rows");
-  app.add_option("--tolerance", tolerance, "headline tolerance in frames")->check(CLI::Range(0, 3));
-  app.add_flag("--baseline", with_baseline, "also run the FLANN voting baseline");
-  app.add_option("--tour", tour_dir, "tour folder for the baseline (default: the map's)");
-  app.add_option("--threads", threads, "matching threads")->check(CLI::Range(1, 256));
-  app.add_option("--config", config_path, "matching settings (YAML), e.g. configs/match.yaml");
-  app.add_option("--json", json_path, "write the full report as JSON");
-  app.add_flag("--show", show, "print every query's answer");
-  CLI11_PARSE(app, argc, argv);
-
-  sceneloc::MatchOptions options;
-  if (!config_path.empty()) {
-    const sceneloc::Status s = sceneloc::LoadMatchOptions(config_path, &options);
-    if (!s.ok()) return Fail(s.message());
-  }
-  sceneloc::Stopwatch load_watch;
-  auto map = sceneloc::LoadMap(map_path);
-  if (!map.ok()) return Fail(map.status().message());
-  const double load_ms = load_watch.Milliseconds();
-
-  std::map<std::string, std::string> ground_truth;
-  if (!truth_csv.empty()) {
-    auto gt = sceneloc::ReadGroundTruth(truth_csv);
-    if (!gt.ok()) return Fail(gt.status().message());
-    ground_truth = std::move(gt).value();
-  }
-  auto paths = sceneloc::ListImageFiles(queries_dir);
-  if (!paths.ok()) return Fail(paths.status().message());
-  std::vector<std::string> names;
-  for (const auto& p : *paths) names.push_back(sceneloc::FileName(p));
-
-  // Queries are extracted one at a time so extract times are those of one frame on one core.
-  const auto extractor = sceneloc::FeatureExtractor::Create(map->options.extractor);
-  std::vector<sceneloc::FeatureSet> queries;
-  std::vector<sceneloc::QueryOutcome> outcomes(paths->size());
-  cv::Size first_size;
-  size_t mixed_sizes = 0;
-  for (size_t q = 0; q < paths->size(); ++q) {
-    auto image = sceneloc::ReadImageFile((*paths)[q]);
-    if (!image.ok()) return Fail(image.status().message());
-    if (q == 0) first_size = image->size();
-    if (image->size() != first_size) ++mixed_sizes;
-    sceneloc::Stopwatch watch;
-    auto features = extractor->Extract(*image, map->QueryTarget(image->cols, image->rows));
-    if (!features.ok()) return Fail((*paths)[q] + ": " + features.status().message());
-    outcomes[q].extract_ms = watch.Milliseconds();
-    outcomes[q].name = names[q];
-    queries.push_back(std::move(features).value());
-  }
-  if (mixed_sizes > 0) {
-    std::fprintf(stderr,
-                 "sceneloc-eval: warning: %zu of %zu query images differ in size from the first "
-                 "(%dx%d); each is brought into the map's frame\n",
-                 mixed_sizes, paths->size(), first_size.width, first_size.height);
-  }
-  // After reading the images, so a file that is not an image is reported as such.
-  auto truth = sceneloc::ResolveTruth(names, map->image_names, ground_truth);
-  if (!truth.ok()) return Fail(truth.status().message());
-  for (size_t q = 0; q < outcomes.size(); ++q) outcomes[q].truth = (*truth)[q];
-
-  std::vector<sceneloc::FeatureSet> tour;
-  if (with_baseline) {
-    if (tour_dir.empty()) tour_dir = map->provenance.tour_dir;
-    auto tour_paths = sceneloc::ListImageFiles(tour_dir);
-    if (!tour_paths.ok()) return Fail("baseline tour: " + tour_paths.status().message());
-    std::vector<std::string> tour_names;
-    for (const auto& p : *tour_paths) tour_names.push_back(sceneloc::FileName(p));
-    if (tour_names != map->image_names) {
-      return Fail("baseline tour '" + tour_dir + "' does not hold the map's tour images");
-    }
-    auto extracted = sceneloc::ExtractFolder(*tour_paths, map->options.extractor, threads, nullptr);
-    if (!extracted.ok()) return Fail(extracted.status().message());
-    tour = std::move(extracted).value();
-  }
-  const sceneloc::Status ran = sceneloc::RunQueries(queries, *map, options, threads,
-                                                    with_baseline ? &tour : nullptr, &outcomes);
-  if (!ran.ok()) return Fail(ran.message());
-  const EvalSummary s = sceneloc::Summarise(outcomes, with_baseline);
-
-  if (show) PrintAnswers(outcomes, map->image_names, tolerance);
+void PrintReport(const Args& args, const EvalSummary& s, const sl::Map& map, double load_ms,
+                 const sl::MatchOptions& options, const Negatives* negatives) {
   std::printf("map %s: %d locations, %d landmarks, %.1f MB in memory, loaded in %.1f ms\n",
-              map_path.c_str(), map->num_images(), map->num_landmarks(),
-              static_cast<double>(map->MemoryBytes()) / 1e6, load_ms);
-  std::printf("%zu queries from %s, %d matching thread(s)\n", s.queries, queries_dir.c_str(),
-              threads);
+              args.map_path.c_str(), map.num_images(), map.num_landmarks(),
+              static_cast<double>(map.MemoryBytes()) / 1e6, load_ms);
+  std::printf("%zu queries from %s, %d matching thread(s)\n", s.queries, args.queries_dir.c_str(),
+              args.threads);
   std::printf("method     exact   ±1     ±2     ±3     confidence  match ms (median  p90)\n");
-  PrintMethod("sceneloc", s.ours, tolerance);
-  if (with_baseline) {
-    PrintMethod("baseline", s.baseline, tolerance);
-    PrintMethod("+ransac", s.reranked, tolerance);
+  PrintMethod("sceneloc", s.ours, args.tolerance);
+  if (args.with_baseline) {
+    PrintMethod("baseline", s.baseline, args.tolerance);
+    PrintMethod("+ransac", s.reranked, args.tolerance);
+  }
+  const auto model = sl::SupportedModel(map, *sl::ParseConfidenceModel(options.confidence_model));
+  std::printf(
+      "confidence (%s model; correct = within ±%d; accepted = confidence >= %.2f; baselines: "
+      "vote or inlier share)\n",
+      sl::ConfidenceModelName(model), map.options.tolerance, options.min_confidence);
+  std::printf("method     PR-AUC  R@100P  ECE (floor)     correct accepted  precision\n");
+  PrintConfidence("sceneloc", s.ours);
+  if (args.with_baseline) {
+    PrintConfidence("baseline", s.baseline);
+    PrintConfidence("+ransac", s.reranked);
+  }
+  if (negatives != nullptr) {
+    std::printf("negatives: %zu frames from %s, %zu LOCALISED (%.1f%%), largest confidence %.2f\n",
+                negatives->frames, args.negatives_dir.c_str(), negatives->accepted,
+                100.0 * negatives->accepted / std::max<size_t>(1, negatives->frames),
+                negatives->max_confidence);
   }
   std::printf("extract ms per query: median %.1f, p90 %.1f\n", s.extract_ms.median,
               s.extract_ms.p90);
@@ -223,10 +266,96 @@ int main(int argc, char** argv) {
       "holistic %.2f, verify %.2f\n",
       s.descriptor_ms.median, s.neighbourhood_ms.median, s.likelihood_ms.median,
       s.holistic_ms.median, s.verify_ms.median);
-  if (!json_path.empty()) {
-    std::ofstream out(json_path);
-    out << ReportJson(s, outcomes, load_ms, map->MemoryBytes()).dump(2) << "\n";
-    if (!out) return Fail("cannot write '" + json_path + "'");
+}
+
+int Run(const Args& args) {
+  sl::MatchOptions options;
+  if (!args.config_path.empty()) {
+    if (sl::Status s = sl::LoadMatchOptions(args.config_path, &options); !s.ok()) {
+      return Fail(s.message());
+    }
+  }
+  sl::Stopwatch load_watch;
+  auto map = sl::LoadMap(args.map_path);
+  if (!map.ok()) return Fail(map.status().message());
+  const double load_ms = load_watch.Milliseconds();
+  std::map<std::string, std::string> ground_truth;
+  if (!args.truth_csv.empty()) {
+    auto gt = sl::ReadGroundTruth(args.truth_csv);
+    if (!gt.ok()) return Fail(gt.status().message());
+    ground_truth = std::move(gt).value();
+  }
+  auto paths = sl::ListImageFiles(args.queries_dir);
+  if (!paths.ok()) return Fail(paths.status().message());
+  std::vector<double> extract_ms;
+  auto queries = ExtractQueries(*paths, *map, &extract_ms);
+  if (!queries.ok()) return Fail(queries.status().message());
+  std::vector<std::string> names;
+  for (const auto& p : *paths) names.push_back(sl::FileName(p));
+  // After reading the images, so a file that is not an image is reported as such.
+  auto truth = sl::ResolveTruth(names, map->image_names, ground_truth);
+  if (!truth.ok()) return Fail(truth.status().message());
+  std::vector<sl::QueryOutcome> outcomes(names.size());
+  for (size_t q = 0; q < outcomes.size(); ++q) {
+    outcomes[q].name = names[q];
+    outcomes[q].truth = (*truth)[q];
+    outcomes[q].extract_ms = extract_ms[q];
+  }
+  std::vector<sl::FeatureSet> tour;
+  if (args.with_baseline) {
+    auto extracted = BaselineTour(args, *map);
+    if (!extracted.ok()) return Fail(extracted.status().message());
+    tour = std::move(extracted).value();
+  }
+  const sl::Status ran = sl::RunQueries(*queries, *map, options, args.threads,
+                                        args.with_baseline ? &tour : nullptr, &outcomes);
+  if (!ran.ok()) return Fail(ran.message());
+  std::optional<Negatives> negatives;
+  if (!args.negatives_dir.empty()) {
+    auto n = RunNegatives(args, *map, options);
+    if (!n.ok()) return Fail("negatives: " + n.status().message());
+    negatives = *n;
+  }
+  const EvalSummary s =
+      sl::Summarise(outcomes, args.with_baseline, {map->options.tolerance, options.min_confidence});
+  if (args.show) PrintAnswers(outcomes, map->image_names, args.tolerance, options.min_confidence);
+  PrintReport(args, s, *map, load_ms, options, negatives ? &*negatives : nullptr);
+  if (!args.json_path.empty()) {
+    std::ofstream out(args.json_path);
+    out << ReportJson(s, outcomes, load_ms, *map, options, negatives ? &*negatives : nullptr)
+               .dump(2)
+        << "\n";
+    if (!out) return Fail("cannot write '" + args.json_path + "'");
+  }
+  if (!args.reliability_png.empty()) {
+    std::vector<sl::ReliabilityPanel> panels = {{"sceneloc", s.ours.confidence}};
+    if (args.with_baseline) panels.push_back({"baseline (vote share)", s.baseline.confidence});
+    if (sl::Status w = sl::WriteReliabilityDiagram(panels, args.reliability_png); !w.ok()) {
+      return Fail(w.message());
+    }
   }
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"sceneloc-eval: match rate, confidence and timing of a map on a query folder"};
+  Args args;
+  app.add_option("--map", args.map_path, "map file")->required();
+  app.add_option("--queries", args.queries_dir, "folder of query images")->required();
+  app.add_option("--ground-truth", args.truth_csv, "CSV of query_file,tour_file rows");
+  app.add_option("--tolerance", args.tolerance, "headline tolerance in frames")
+      ->check(CLI::Range(0, 3));
+  app.add_flag("--baseline", args.with_baseline, "also run the FLANN voting baselines");
+  app.add_option("--tour", args.tour_dir, "tour folder for the baseline (default: the map's)");
+  app.add_option("--negatives", args.negatives_dir,
+                 "folder of frames from elsewhere: how many would be LOCALISED");
+  app.add_option("--threads", args.threads, "matching threads")->check(CLI::Range(1, 256));
+  app.add_option("--config", args.config_path, "matching settings (YAML), e.g. configs/match.yaml");
+  app.add_option("--json", args.json_path, "write the full report as JSON");
+  app.add_option("--reliability", args.reliability_png, "write a reliability diagram (PNG)");
+  app.add_flag("--show", args.show, "print every query's answer");
+  CLI11_PARSE(app, argc, argv);
+  return Run(args);
 }

@@ -1,14 +1,13 @@
-// sceneloc-experiments: the paper's experiments and our ablations on a real tour.
+// sceneloc-experiments: the paper's experiments (eta sweep, environment size) on a real tour.
 //
 //   sceneloc-experiments --tour DIR --queries DIR --out DIR --experiment NAME [options]
 //
 // Experiments (each writes OUT/NAME.csv, one row per run, ours and the baseline side by
-// side on the same features):
+// side on the same features; the ablation is sceneloc-accuracy --ablation, on every set):
 //   single    one run with the given settings
 //   eta       match rate, confidence and matching time against eta (paper Fig. 5)
 //   size      eta_opt and its match rate against environment size (paper Fig. 6): the
 //             first N tour images, the queries whose true location is among them
-//   ablation  the paper's literal method and each of our departures, one at a time
 // scripts/plot_experiments.py turns the CSVs into PNG plots.
 #include <CLI/CLI.hpp>
 #include <cstdio>
@@ -144,48 +143,10 @@ int Fail(const std::string& m) {
   return 1;
 }
 
-// The variants of the ablation: our default, the paper as printed (with the variance
-// floors we started from), then each of our departures taken away one at a time.
-std::vector<sl::Settings> AblationVariants(const sl::Settings& base) {
-  std::vector<sl::Settings> v;
-  auto add = [&](const std::string& name, auto change) {
-    sl::Settings s = base;
-    s.name = name;
-    change(&s);
-    v.push_back(s);
-  };
-  add("default", [](sl::Settings*) {});
-  add("paper_as_printed", [](sl::Settings* s) {
-    s->match.verify_top = 0;
-    s->train.local_var_floor = 0.02;
-    s->train.context_var_floor = 0.002;
-    s->train.distance_sd_floor = 10.0 / 480;
-    s->train.angle_var_floor = 0.01;
-  });
-  add("no_verification", [](sl::Settings* s) { s->match.verify_top = 0; });
-  add("verify_without_scale", [](sl::Settings* s) { s->match.verify_scale_sigma = 0; });
-  add("s_d_only", [](sl::Settings* s) { s->match.use_neighbourhood = false; });
-  add("no_centre_term", [](sl::Settings* s) { s->match.include_centre_term = false; });
-  add("paper_variance_floors", [](sl::Settings* s) {
-    s->train.local_var_floor = 0.02;
-    s->train.context_var_floor = 0.002;
-  });
-  add("paper_spatial_floors", [](sl::Settings* s) {
-    s->train.distance_sd_floor = 10.0 / 480;
-    s->train.angle_var_floor = 0.01;
-  });
-  add("eta_all", [](sl::Settings* s) { s->train.eta = 0; });
-  add("distinctiveness", [](sl::Settings* s) { s->match.distinctiveness = true; });
-  add("max_features_500", [](sl::Settings* s) { s->train.extractor.max_features = 500; });
-  add("full_resolution", [](sl::Settings* s) { s->train.extractor.working_size = 960; });
-  add("single_view_landmarks", [](sl::Settings* s) { s->train.min_track_length = 1; });
-  return v;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"sceneloc-experiments: eta sweep, environment size and ablations on real data"};
+  CLI::App app{"sceneloc-experiments: eta sweep and environment size on real data"};
   sl::Context c;
   std::string out_dir, experiment = "single", train_config, match_config, train_yaml, match_yaml;
   std::string variant_name = "default";
@@ -195,8 +156,8 @@ int main(int argc, char** argv) {
   app.add_option("--tour", c.tour_dir, "tour folder")->required();
   app.add_option("--queries", c.queries_dir, "query folder (truth: same file name)")->required();
   app.add_option("--out", out_dir, "folder for the CSV files")->required();
-  app.add_option("--experiment", experiment, "single | eta | size | ablation")
-      ->check(CLI::IsMember({"single", "eta", "size", "ablation"}));
+  app.add_option("--experiment", experiment, "single | eta | size")
+      ->check(CLI::IsMember({"single", "eta", "size"}));
   app.add_option("--cache", c.cache_dir, "feature cache folder (default OUT/cache)");
   app.add_option("--train-config", train_config, "training settings file");
   app.add_option("--match-config", match_config, "matching settings file");
@@ -239,9 +200,6 @@ int main(int argc, char** argv) {
   std::vector<std::pair<sl::Settings, int>> plan;  // settings, locations
   const int all = static_cast<int>(data->tour.size());
   if (experiment == "single") plan.push_back({base, all});
-  if (experiment == "ablation") {
-    for (const auto& v : AblationVariants(base)) plan.push_back({v, all});
-  }
   if (experiment == "eta" || experiment == "size") {
     for (int n : experiment == "eta" ? std::vector<int>{all} : sizes) {
       for (int eta : etas) {

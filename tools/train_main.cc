@@ -59,9 +59,9 @@ void PrintSummary(const sceneloc::TrainSummary& s, const std::string& out, doubl
   std::printf("  map file             %.2f MB\n", static_cast<double>(bytes) / 1e6);
   std::printf(
       "  time (s)             extract %.1f, track %.1f, fuse %.1f, quality %.1f, "
-      "select %.2f, co-occurrence %.1f\n",
+      "select %.2f, co-occurrence %.1f, calibration %.1f\n",
       s.extract_seconds, s.track_seconds, s.fuse_seconds, s.quality_seconds, s.select_seconds,
-      s.cooccurrence_seconds);
+      s.cooccurrence_seconds, s.calibration_seconds);
 }
 
 // Refuses an --out that cannot be written before any work is done: its folder must exist

@@ -17,6 +17,7 @@ SettingTable TrainSettingTable(TrainOptions* o) {
       {"extractor", "holistic_cols", &e->holistic.cols, 0, 64},
       {"extractor", "holistic_cell_pixels", &e->holistic.cell_pixels, 2, 64},
       {"extractor", "holistic_bins", &e->holistic.bins, 4, 36},
+      {"extractor", "holistic_max_shift", &e->holistic.max_shift, 0, 63},
       {"tracking", "distance_threshold", &o->track_distance_threshold, 1e-6, 2},
       {"tracking", "ransac_threshold", &o->ransac_threshold, 1e-5, 0.1},
       {"tracking", "ransac_confidence", &o->ransac_confidence, 0.5, 0.999999},
@@ -32,6 +33,10 @@ SettingTable TrainSettingTable(TrainOptions* o) {
       {"selection", "quality_fp_prior", &o->quality_fp_prior, 0, 1e9},
       {"selection", "eta", &o->eta, 0, 1000000},
       {"selection", "q_min", &o->q_min, 0, 1e9},
+      {"calibration", "tolerance", &o->tolerance, 0, 100},
+      {"calibration", "confidence_temperature", &o->confidence_temperature, 1e-3, 100},
+      {"calibration", "map_evidence_slope", &o->map_evidence_slope, 1e-3, 100},
+      {"calibration", "map_evidence_offset", &o->map_evidence_offset, -100, 100},
   };
 }
 
@@ -46,13 +51,14 @@ SettingTable MatchSettingTable(MatchOptions* o) {
       {"matching", "verify_top", &o->verify_top, 0, 1000},
       {"matching", "use_holistic", &o->use_holistic, 0, 1},
       {"matching", "holistic_top", &o->holistic_top, 0, 1000},
-      {"matching", "holistic_max_shift", &o->holistic_max_shift, 0, 16},
       {"matching", "verify_ransac_threshold", &o->verify_ransac_threshold, 1e-5, 0.1},
       {"matching", "verify_ransac_iterations", &o->verify_ransac_iterations, 1, 100000},
       {"matching", "verify_angle_tolerance", &o->verify_angle_tolerance, 0, 180},
       {"matching", "verify_scale_sigma", &o->verify_scale_sigma, 0, 10},
       {"matching", "verify_chance_inliers", &o->verify_chance_inliers, 0, 1000},
       {"matching", "verify_weight", &o->verify_weight, 0, 100},
+      {"matching", "confidence_model", &o->confidence_model, 0, 0},
+      {"matching", "min_confidence", &o->min_confidence, 0, 1},
       {"matching", "top_k", &o->top_k, 1, 1000},
   };
 }

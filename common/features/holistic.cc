@@ -80,6 +80,9 @@ Status HolisticOptions::Validate() const {
     return InvalidArgument("holistic_cell_pixels must be in [2, 64]");
   }
   if (bins < 4 || bins > 36) return InvalidArgument("holistic_bins must be in [4, 36]");
+  if (max_shift < 0 || max_shift >= cols) {
+    return InvalidArgument("holistic_max_shift must be in [0, holistic_cols)");
+  }
   return Status::Ok();
 }
 

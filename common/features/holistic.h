@@ -29,6 +29,10 @@ struct HolisticOptions {
   // Orientation bins over the full circle (signed gradients: dark-to-light differs from
   // light-to-dark, which keeps a lit wall and its shadow apart).
   int bins = 12;
+  // Lateral tolerance when two descriptors are compared (HolisticDistance), in cells: 2 of
+  // 16 is an eighth of the frame's width (the same place seen from the other side of a
+  // path).
+  int max_shift = 2;
 
   bool enabled() const { return cols > 0; }
   Status Validate() const;

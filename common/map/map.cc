@@ -162,6 +162,18 @@ Status ValidateImages(const Map& map) {
   return Status::Ok();
 }
 
+Status ValidateCalibration(const Map& map) {
+  const Calibration& c = map.calibration;
+  if (!c.valid) return Status::Ok();
+  if (!map.has_holistic()) return DataLoss("calibration present in a map without holistic data");
+  if (!(std::isfinite(c.off_map_distance) && c.off_map_distance >= 0 &&
+        std::isfinite(c.off_map_spread) && c.off_map_spread > 0)) {
+    return DataLoss("calibration off_map_distance " + FormatFloat(c.off_map_distance) +
+                    " / spread " + FormatFloat(c.off_map_spread) + " out of range");
+  }
+  return Status::Ok();
+}
+
 Status ValidateHolistic(const Map& map) {
   const HolisticGrid& g = map.holistic_grid;
   if (g.cols == 0 && g.rows == 0 && g.bins == 0 && map.holistic.empty()) return Status::Ok();
@@ -288,6 +300,7 @@ Status Map::Validate() const {
   if (!options_status.ok()) return DataLoss("training options: " + options_status.message());
   SCENELOC_RETURN_IF_ERROR(ValidateImages(*this));
   SCENELOC_RETURN_IF_ERROR(ValidateHolistic(*this));
+  SCENELOC_RETURN_IF_ERROR(ValidateCalibration(*this));
   SCENELOC_RETURN_IF_ERROR(ValidateLandmarkCounts(*this));
   SCENELOC_RETURN_IF_ERROR(ValidateObservations(*this));
   SCENELOC_RETURN_IF_ERROR(ValidateNeighbourLinks(*this));

@@ -34,6 +34,16 @@ struct Neighbour {
   float angle_dmax = 0;     // largest wrapped |angle - mean|, radians
 };
 
+// What the calibrated confidence (common/matching/confidence.h) needs from the tour,
+// measured at training time: how close a frame that shows no place of the route comes to
+// the tour's images (the tour's own frames turned upside down, localised against the map).
+struct Calibration {
+  bool valid = false;          // false: a map without calibration (format version 1)
+  float off_map_distance = 0;  // median smallest holistic distance of such frames
+  float off_map_spread = 0;    // 1.4826 MAD of those distances (> 0)
+  uint32_t samples = 0;        // how many frames were measured
+};
+
 // Where and how a map was made.
 struct MapProvenance {
   std::string tour_dir;         // the tour folder as given to sceneloc-train
@@ -47,6 +57,7 @@ struct MapProvenance {
 struct Map {
   TrainOptions options;
   MapProvenance provenance;
+  Calibration calibration;
 
   // Tour images, in tour order; the index is the location number.
   std::vector<std::string> image_names;

@@ -34,9 +34,9 @@ static_assert(std::is_trivially_copyable_v<Neighbour> && sizeof(Neighbour) == 32
               "Neighbour is copied as the 32-byte record of map_io.h");
 // A new option must be stored too: add it to TransferOptions, to the layout in
 // map_io.h and to the round-trip test, bump kMapFormatVersion, then update these sizes.
-static_assert(sizeof(void*) != 8 || sizeof(ExtractorOptions) == 72,
+static_assert(sizeof(void*) != 8 || sizeof(ExtractorOptions) == 80,
               "ExtractorOptions changed: update the map file format");
-static_assert(sizeof(void*) != 8 || sizeof(TrainOptions) == 184,
+static_assert(sizeof(void*) != 8 || sizeof(TrainOptions) == 216,
               "TrainOptions changed: update the map file format");
 
 template <typename T>
@@ -210,6 +210,7 @@ void TransferOptions(Archive& a, Options& o, uint32_t version, V1& v1) {
     a.Field("extractor.holistic_cols", o.extractor.holistic.cols);
     a.Field("extractor.holistic_cell_pixels", o.extractor.holistic.cell_pixels);
     a.Field("extractor.holistic_bins", o.extractor.holistic.bins);
+    a.Field("extractor.holistic_max_shift", o.extractor.holistic.max_shift);
   }
   a.Field("track_distance_threshold", o.track_distance_threshold);
   if (v2) {
@@ -234,6 +235,12 @@ void TransferOptions(Archive& a, Options& o, uint32_t version, V1& v1) {
   a.Field("eta", o.eta);
   a.Field("q_min", o.q_min);
   a.Field("max_neighbours", o.max_neighbours);
+  if (v2) {
+    a.Field("tolerance", o.tolerance);
+    a.Field("confidence_temperature", o.confidence_temperature);
+    a.Field("map_evidence_slope", o.map_evidence_slope);
+    a.Field("map_evidence_offset", o.map_evidence_offset);
+  }
 }
 
 template <typename Archive, typename Provenance>
@@ -246,10 +253,19 @@ void TransferProvenance(Archive& a, Provenance& p) {
   a.Field("provenance.num_candidates", p.num_candidates);
 }
 
+template <typename Archive, typename CalibrationT>
+void TransferCalibration(Archive& a, CalibrationT& c) {
+  a.Field("calibration.valid", c.valid);
+  a.Field("calibration.off_map_distance", c.off_map_distance);
+  a.Field("calibration.off_map_spread", c.off_map_spread);
+  a.Field("calibration.samples", c.samples);
+}
+
 template <typename Archive, typename MapT, typename V1>
 void TransferMap(Archive& a, MapT& m, uint32_t version, V1& v1) {
   TransferOptions(a, m.options, version, v1);
   TransferProvenance(a, m.provenance);
+  if (version >= 2) TransferCalibration(a, m.calibration);
   a.Field("image_names", m.image_names);
   a.Field("image_width", m.image_width);
   a.Field("image_height", m.image_height);

@@ -17,15 +17,19 @@
 //     TrainOptions   extractor: i32 max_features, i32 working_size, f64 context_scale,
 //                      f64 contrast_threshold, f64 edge_threshold, f64 sigma,
 //                      i32 max_image_side, f64 clahe_clip, u8 root_sift,
-//                      i32 holistic_cols, i32 holistic_cell_pixels, i32 holistic_bins;
+//                      i32 holistic_cols, i32 holistic_cell_pixels, i32 holistic_bins,
+//                      i32 holistic_max_shift;
 //                    f64 track_distance_threshold, f64 ransac_threshold,
 //                    f64 ransac_confidence, i32 min_links_per_pair, i32 min_track_length,
 //                    i32 min_landmarks_per_image, f64 local_var_floor,
 //                    f64 context_var_floor, f64 distance_sd_floor, f64 angle_var_floor,
 //                    f64 quality_s_min, f64 quality_fp_prior, i32 eta, f64 q_min,
 //                    i32 max_neighbours
+//                    i32 tolerance, f64 confidence_temperature, f64 map_evidence_slope,
+//                    f64 map_evidence_offset
 //     MapProvenance  str tour_dir, str created_utc, str tool_version, u32 num_features,
 //                    u32 num_tracks, u32 num_candidates
+//     Calibration    u8 valid, f32 off_map_distance, f32 off_map_spread, u32 samples
 //     Images         u64 N, N x str image_names; i32 image_width, i32 image_height;
 //                    i32 holistic cols, i32 rows, i32 bins, arr<f32> holistic
 //                    (N x cols x rows x bins, or empty with a zero grid)
@@ -47,11 +51,12 @@
 //   where a u8 flag is 0 or 1.
 //
 //   Format version 1 (still read): extractor.working_size was f64 image_scale, and the
-//   lighting and holistic fields, min_landmarks_per_image and observation_angle were absent;
+//   lighting, holistic, confidence and calibration fields, min_landmarks_per_image and
+//   observation_angle were absent;
 //   ransac_threshold was f64 ransac_threshold_px and distance_sd_floor f64
 //   distance_var_floor (pixels^2). LoadMap converts such a map to today's terms: its
 //   working frame is the frame it was made in, pixel settings become fractions of it, and
-//   it has no holistic descriptors (see UpgradeV1 in map_io.cc).
+//   it has neither holistic descriptors nor a calibration (see UpgradeV1 in map_io.cc).
 //   The derived Map fields (local_mean_sqnorm) are not stored; loading recomputes them.
 //
 // Compatibility: bytes 0..11 (magic and format version) mean the same in every version;

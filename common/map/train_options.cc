@@ -62,6 +62,16 @@ Status TrainOptions::Validate() const {
   SCENELOC_RETURN_IF_ERROR(CheckAtLeast("quality_fp_prior", quality_fp_prior, 0.0));
   SCENELOC_RETURN_IF_ERROR(CheckAtLeast("eta", eta, 0));
   SCENELOC_RETURN_IF_ERROR(CheckAtLeast("q_min", q_min, 0.0));
+  if (tolerance < 0 || tolerance > 100) {
+    return InvalidArgument("tolerance must be in [0, 100], got " + std::to_string(tolerance));
+  }
+  SCENELOC_RETURN_IF_ERROR(
+      CheckOpenRange("confidence_temperature", confidence_temperature, 0.0, 100.0, false));
+  SCENELOC_RETURN_IF_ERROR(
+      CheckOpenRange("map_evidence_slope", map_evidence_slope, 0.0, 100.0, false));
+  if (!(std::isfinite(map_evidence_offset) && std::abs(map_evidence_offset) <= 100)) {
+    return InvalidArgument("map_evidence_offset must be in [-100, 100]");
+  }
   if (max_neighbours < 0 || max_neighbours > 256) {
     return InvalidArgument("max_neighbours must be in [0, 256], got " +
                            std::to_string(max_neighbours));

@@ -64,6 +64,17 @@ struct TrainOptions {
   // Each landmark keeps at most this many co-occurring neighbours, the nearest first.
   int max_neighbours = 24;
 
+  // --- Confidence (common/matching/confidence.h; our departure) ---
+  // The confidence is the probability that the answer lies within this many tour frames of
+  // the true location.
+  int tolerance = 2;
+  // The constants of the calibrated confidence, measured across environments (every
+  // development set, validated leaving each out; docs/results.md): the temperature of the
+  // posterior over locations, and the slope and offset of the in-map probability.
+  double confidence_temperature = 0.31;
+  double map_evidence_slope = 1.6;
+  double map_evidence_offset = 0.6;
+
   Status Validate() const;
 };
 

@@ -1,6 +1,7 @@
 #include "common/matching/baseline.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cstdlib>
 #include <numeric>
 #include <opencv2/calib3d.hpp>
@@ -48,7 +49,13 @@ class FlannVotingBaseline final : public VotingBaseline {
       }
     }
     result.confidence = v1 + v2 > 0 ? static_cast<float>(v1) / static_cast<float>(v1 + v2) : 0.0f;
-    if (options_.rerank_top > 0 && result.best >= 0) Rerank(query, q, &result);
+    if (options_.rerank_top > 0 && result.best >= 0) {
+      const auto start = std::chrono::steady_clock::now();
+      Rerank(query, q, &result);
+      result.rerank_ms =
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+              .count();
+    }
     return result;
   }
 

@@ -33,6 +33,7 @@ struct BaselineResult {
   int reranked_best = -1;
   int reranked_inliers = 0;
   float reranked_confidence = 0;
+  double rerank_ms = 0;  // time the re-ranking took (on top of the vote)
 };
 
 // Not thread-safe: FLANN's search is not documented as safe for concurrent calls, so call

@@ -82,7 +82,12 @@ std::vector<float> LocationScores(const std::vector<CandidateEvidence>& candidat
   std::vector<float> scores = holistic_z;
   scores.resize(num_locations, 0.0f);
   if (!options.use_holistic) std::fill(scores.begin(), scores.end(), 0.0f);
-  for (const CandidateEvidence& c : candidates) scores[c.location] = static_cast<float>(c.score);
+  for (const CandidateEvidence& c : candidates) {
+    const double excess = std::max(0.0, VerifiedScore(c, options) - options.verify_chance_inliers);
+    const bool holistic = options.use_holistic && c.holistic >= 0;
+    scores[c.location] =
+        static_cast<float>((holistic ? c.holistic_z : 0.0) + options.verify_weight * excess);
+  }
   return scores;
 }
 

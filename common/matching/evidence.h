@@ -31,9 +31,10 @@ double VerifiedScore(const CandidateEvidence& c, const MatchOptions& options);
 // verified inlier above verify_chance_inliers. Without holistic evidence, VerifiedScore.
 double FuseEvidence(const CandidateEvidence& c, const MatchOptions& options);
 
-// Every location's score on the fused scale: a candidate's fused score; any other
-// location's holistic z-score (its geometric evidence unmeasured, taken as chance), or 0
-// without holistic evidence.
+// Every location's evidence on one scale, the confidence's: a candidate's holistic z-score
+// plus verify_weight per verified inlier above chance (its geometric evidence alone without
+// holistic evidence); any other location's holistic z-score (its geometric evidence
+// unmeasured, taken as chance), or 0 without holistic evidence.
 std::vector<float> LocationScores(const std::vector<CandidateEvidence>& candidates,
                                   const std::vector<float>& holistic_z, size_t num_locations,
                                   const MatchOptions& options);

@@ -13,6 +13,10 @@
 
 namespace sceneloc {
 
+const char* DecisionName(Decision decision) {
+  return decision == Decision::kLocalised ? "LOCALISED" : "UNKNOWN";
+}
+
 Status MatchOptions::Validate() const {
   if (!(s_min > 0.0 && s_min <= 1.0)) return InvalidArgument("s_min must be in (0, 1]");
   if (max_neighbours < 0) return InvalidArgument("max_neighbours must be >= 0 (0 = all)");
@@ -22,6 +26,13 @@ Status MatchOptions::Validate() const {
   if (!(verify_angle_tolerance >= 0.0 && verify_angle_tolerance <= 180.0)) {
     return InvalidArgument("verify_angle_tolerance must be in [0, 180]");
   }
+  if (confidence_model != "calibrated" && confidence_model != "paper") {
+    return InvalidArgument("confidence_model must be 'calibrated' or 'paper', got '" +
+                           confidence_model + "'");
+  }
+  if (!(min_confidence >= 0.0 && min_confidence <= 1.0)) {
+    return InvalidArgument("min_confidence must be in [0, 1]");
+  }
   if (!(verify_chance_inliers >= 0.0 && verify_chance_inliers <= 1000.0)) {
     return InvalidArgument("verify_chance_inliers must be in [0, 1000]");
   }
@@ -30,9 +41,6 @@ Status MatchOptions::Validate() const {
   }
   if (holistic_top < 0 || holistic_top > 1000) {
     return InvalidArgument("holistic_top must be in [0, 1000]");
-  }
-  if (holistic_max_shift < 0 || holistic_max_shift > 16) {
-    return InvalidArgument("holistic_max_shift must be in [0, 16]");
   }
   if (!(verify_ransac_threshold > 0.0 && verify_ransac_threshold <= 0.1)) {
     return InvalidArgument("verify_ransac_threshold must be in (0, 0.1]");
@@ -146,8 +154,21 @@ std::vector<int> RankByValue(const std::vector<float>& value) {
   return order;
 }
 
-float Ratio(double first, double second) {
-  return first + second > 0 ? static_cast<float>(first / (first + second)) : 0.0f;
+// The confidence of the best answer in `order` with the model the map supports, and the
+// decision it implies.
+void AssessAnswer(const Map& map, const MatchOptions& options, const std::vector<float>& likelihood,
+                  const std::vector<int>& order, LocaliseResult* result) {
+  const ConfidenceModel wanted =
+      options.confidence_model == "paper" ? ConfidenceModel::kPaper : ConfidenceModel::kCalibrated;
+  result->confidence_model = SupportedModel(map, wanted);
+  if (order.empty()) return;
+  result->confidence =
+      static_cast<float>(result->confidence_model == ConfidenceModel::kPaper
+                             ? PaperConfidence(likelihood)
+                             : CalibratedConfidence(map, result->location_scores, order[0],
+                                                    result->nearest_holistic_distance));
+  result->decision =
+      result->confidence >= options.min_confidence ? Decision::kLocalised : Decision::kUnknown;
 }
 
 // Verifies every candidate (one RANSAC each, spread over the pool).
@@ -199,8 +220,9 @@ StatusOr<LocaliseResult> LocaliseInFrame(const FeatureSet& features, const Map& 
   const std::vector<float>& likelihood = scores.likelihood;
   Stopwatch stage;
   const std::vector<float> holistic =
-      options.use_holistic ? HolisticDistances(features, map, options.holistic_max_shift, pool)
-                           : std::vector<float>();
+      options.use_holistic
+          ? HolisticDistances(features, map, map.options.extractor.holistic.max_shift, pool)
+          : std::vector<float>();
   const std::vector<float> holistic_z = RobustZ(holistic);
   result.timings.holistic_ms = stage.Milliseconds();
 
@@ -240,15 +262,10 @@ StatusOr<LocaliseResult> LocaliseInFrame(const FeatureSet& features, const Map& 
     result.ranked.push_back(
         {l, map.image_names[l], likelihood[l], e ? e->inliers : -1, e ? e->log_scale : 0.0f});
   }
-  if (order.size() >= 2) {
-    // Fused scores decide when the best candidate has any support; with none (e.g. too
-    // few correspondences), the ranking and its confidence are L's.
-    const double s1 = candidates.size() > 0 ? candidates[0].score : 0;
-    const double s2 = candidates.size() > 1 ? candidates[1].score : 0;
-    result.confidence = s1 > 0 ? Ratio(s1, s2) : Ratio(likelihood[order[0]], likelihood[order[1]]);
-  } else if (!order.empty() && likelihood[order[0]] > 0) {
-    result.confidence = 1.0f;
+  if (!holistic.empty()) {
+    result.nearest_holistic_distance = *std::min_element(holistic.begin(), holistic.end());
   }
+  AssessAnswer(map, options, likelihood, order, &result);
   result.candidates = std::move(candidates);
   result.timings.total_ms = total.Milliseconds();
   return result;

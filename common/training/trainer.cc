@@ -5,6 +5,7 @@
 #include <ctime>
 #include <mutex>
 
+#include "common/training/calibration.h"
 #include "common/training/cooccurrence.h"
 #include "common/training/landmark_builder.h"
 #include "common/training/quality.h"
@@ -314,6 +315,9 @@ StatusOr<TrainResult> TrainFromFeatures(const std::vector<FeatureSet>& tour,
   p.num_features = static_cast<uint32_t>(s.features);
   p.num_tracks = static_cast<uint32_t>(s.tracks);
   p.num_candidates = static_cast<uint32_t>(s.landmarks_before_selection);
+  watch.Reset();
+  CalibrateMap(&result.map, &pool);
+  s.calibration_seconds = watch.Seconds();
   SCENELOC_RETURN_IF_ERROR(result.map.Validate());
   result.map.Finalize();
   return result;

@@ -41,6 +41,7 @@ struct TrainSummary {
   double quality_seconds = 0;
   double select_seconds = 0;
   double cooccurrence_seconds = 0;
+  double calibration_seconds = 0;
 };
 
 struct TrainResult {

@@ -47,6 +47,18 @@ TEST(ConfigTest, MatchOptions) {
   EXPECT_DOUBLE_EQ(o.s_min, 0.25);
   EXPECT_EQ(ParseMatchOptions("matching:\n  use_neighbourhood: maybe\n", "m", &o).code(),
             StatusCode::kInvalidArgument);
+  // The decision threshold is a probability; the confidence model one of two names.
+  Status s = ParseMatchOptions("matching:\n  min_confidence: 1.5\n", "m", &o);
+  EXPECT_NE(s.message().find("matching.min_confidence = 1.5 is out of range"), std::string::npos)
+      << s.message();
+  s = ParseMatchOptions("matching:\n  confidence_model: bayes\n", "m", &o);
+  EXPECT_NE(s.message().find("confidence_model must be 'calibrated' or 'paper'"), std::string::npos)
+      << s.message();
+  ASSERT_TRUE(
+      ParseMatchOptions("matching:\n  confidence_model: paper\n  min_confidence: 0\n", "m", &o)
+          .ok());
+  EXPECT_EQ(o.confidence_model, "paper");
+  EXPECT_EQ(o.min_confidence, 0.0);
 }
 
 // The YAML the tools print parses back to the same settings.

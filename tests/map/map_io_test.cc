@@ -64,6 +64,7 @@ Map MakeMapWithDistinctOptions() {
   o.extractor.sigma = 1.7;
   o.extractor.max_image_side = 4097;
   o.extractor.holistic.cell_pixels = 7;
+  o.extractor.holistic.max_shift = 3;
   o.extractor.clahe_clip = 2.5;
   o.extractor.root_sift = true;
   o.track_distance_threshold = 0.55;
@@ -81,6 +82,10 @@ Map MakeMapWithDistinctOptions() {
   o.eta = 9;
   o.q_min = 0.012;
   o.max_neighbours = 23;
+  o.tolerance = 3;
+  o.confidence_temperature = 0.29;
+  o.map_evidence_slope = 1.7;
+  o.map_evidence_offset = -0.4;
   map.provenance.num_features = 1001;
   map.provenance.num_tracks = 1002;
   map.provenance.num_candidates = 1003;
@@ -290,6 +295,33 @@ TEST_F(MapIoTest, WrongMagicIsInvalidArgument) {
   ExpectLoadFails(bytes, StatusCode::kInvalidArgument, "is not a sceneloc map (bad magic)");
   ExpectLoadFails("landmarks: []\n", StatusCode::kInvalidArgument, "bad magic");
   ExpectLoadFails("S", StatusCode::kDataLoss, "truncated");  // a prefix of the magic
+}
+
+// A map written before format version 2 (tests/data/v1_map.scnl) loads in today's terms:
+// its working frame is the frame it was made in, its pixel settings become fractions of
+// it, and it has no holistic descriptors and no calibration.
+TEST(MapIoCompatibilityTest, VersionOneMapLoads) {
+  MapFileInfo info;
+  auto map = LoadMap(SCENELOC_TEST_DATA "/v1_map.scnl", &info);
+  ASSERT_TRUE(map.ok()) << map.status().ToString();
+  EXPECT_EQ(info.format_version, 1u);
+  EXPECT_EQ(map->num_images(), 6);
+  EXPECT_EQ(map->image_width, 320);
+  EXPECT_EQ(map->image_height, 180);
+  EXPECT_EQ(map->options.extractor.working_size, 320);
+  EXPECT_DOUBLE_EQ(map->options.ransac_threshold, 2.0 / 320);
+  EXPECT_NEAR(map->options.distance_sd_floor, 20.0 / 320, 1e-9);
+  EXPECT_EQ(map->options.min_landmarks_per_image, 0);
+  EXPECT_FALSE(map->has_holistic());
+  EXPECT_TRUE(map->observation_angle.empty());
+  EXPECT_FALSE(map->calibration.valid);
+  EXPECT_EQ(map->options.eta, 30);
+  // Saved again, it is a version-2 file that loads the same.
+  const std::string again = SerializeMap(*map);
+  auto reloaded = ParseMap(again, "again", &info);
+  ASSERT_TRUE(reloaded.ok()) << reloaded.status().ToString();
+  EXPECT_EQ(info.format_version, kMapFormatVersion);
+  test::ExpectMapsEqual(*map, *reloaded);
 }
 
 // A file of a newer format version (with a valid header CRC) is Unimplemented and

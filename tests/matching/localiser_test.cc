@@ -80,7 +80,9 @@ TEST(LocaliserTest, RanksAndComputesConfidence) {
   const FeatureSet f = FeaturesOfImage(map, 7, 2);
   MatchOptions options;
   options.use_neighbourhood = false;
-  options.verify_top = 0;  // rank by L alone, the paper's eq. 3
+  options.verify_top = 0;  // rank by L alone, the paper's eq. 3, with its confidence
+  options.use_holistic = false;
+  options.confidence_model = "paper";
   options.top_k = 4;
   const auto r = Localise(f, map, options, nullptr);
   ASSERT_TRUE(r.ok());
@@ -92,6 +94,7 @@ TEST(LocaliserTest, RanksAndComputesConfidence) {
   }
   const float l1 = r->ranked[0].likelihood, l2 = r->ranked[1].likelihood;
   EXPECT_NEAR(r->confidence, l1 / (l1 + l2), 1e-6);
+  EXPECT_EQ(r->confidence_model, ConfidenceModel::kPaper);
   EXPECT_GT(r->descriptor_matches, 0u);
 }
 
@@ -142,6 +145,7 @@ TEST(LocaliserTest, EmptyFrameHasZeroConfidence) {
   const auto r = Localise(f, map, {}, nullptr);
   ASSERT_TRUE(r.ok());
   EXPECT_EQ(r->confidence, 0.0f);
+  EXPECT_EQ(r->decision, Decision::kUnknown);
   EXPECT_EQ(r->ranked[0].likelihood, 0.0f);
 }
 

@@ -120,7 +120,7 @@ TEST_F(ServerTest, FeatureSetRoundTripMatchesTheEngine) {
 // is honoured.
 TEST_F(ServerTest, Uint8FeatureSetAndTopK) {
   auto reply =
-      client_->Localise(kTestMapName, test::TourFeatures(3), DescriptorEncoding::kUint8, 2);
+      client_->Localise(kTestMapName, test::TourFeatures(3), {2, {}, DescriptorEncoding::kUint8});
   ASSERT_TRUE(reply.ok()) << reply.status().ToString();
   ASSERT_EQ(reply->locations_size(), 2);
   EXPECT_EQ(reply->locations(0).index(), 3);

@@ -170,6 +170,8 @@ Map MakeRandomMap(int num_images, int num_landmarks, uint32_t seed) {
   Map map;
   FillHeader(num_images, seed, &map);
   FillHolistic(rng, &map);
+  map.calibration = {true, Uniform(rng, 0.2f, 0.4f), Uniform(rng, 0.01f, 0.05f),
+                     static_cast<uint32_t>(num_images)};
   map.local_mean.resize(num_landmarks, kDescriptorSize);
   map.context_mean.resize(num_landmarks, kDescriptorSize);
   FillDescriptors(rng, &map);
@@ -202,6 +204,7 @@ void ExpectOptionsEqual(const TrainOptions& a, const TrainOptions& b) {
   EXPECT_EQ(a.extractor.holistic.cols, b.extractor.holistic.cols);
   EXPECT_EQ(a.extractor.holistic.cell_pixels, b.extractor.holistic.cell_pixels);
   EXPECT_EQ(a.extractor.holistic.bins, b.extractor.holistic.bins);
+  EXPECT_EQ(a.extractor.holistic.max_shift, b.extractor.holistic.max_shift);
   EXPECT_EQ(a.track_distance_threshold, b.track_distance_threshold);
   EXPECT_EQ(a.ransac_threshold, b.ransac_threshold);
   EXPECT_EQ(a.ransac_confidence, b.ransac_confidence);
@@ -217,6 +220,10 @@ void ExpectOptionsEqual(const TrainOptions& a, const TrainOptions& b) {
   EXPECT_EQ(a.eta, b.eta);
   EXPECT_EQ(a.q_min, b.q_min);
   EXPECT_EQ(a.max_neighbours, b.max_neighbours);
+  EXPECT_EQ(a.tolerance, b.tolerance);
+  EXPECT_EQ(a.confidence_temperature, b.confidence_temperature);
+  EXPECT_EQ(a.map_evidence_slope, b.map_evidence_slope);
+  EXPECT_EQ(a.map_evidence_offset, b.map_evidence_offset);
 }
 
 template <typename Matrix>
@@ -244,6 +251,10 @@ void ExpectMapsEqual(const Map& a, const Map& b) {
   EXPECT_EQ(a.provenance.num_features, b.provenance.num_features);
   EXPECT_EQ(a.provenance.num_tracks, b.provenance.num_tracks);
   EXPECT_EQ(a.provenance.num_candidates, b.provenance.num_candidates);
+  EXPECT_EQ(a.calibration.valid, b.calibration.valid);
+  EXPECT_EQ(a.calibration.off_map_distance, b.calibration.off_map_distance);
+  EXPECT_EQ(a.calibration.off_map_spread, b.calibration.off_map_spread);
+  EXPECT_EQ(a.calibration.samples, b.calibration.samples);
   EXPECT_EQ(a.image_names, b.image_names);
   EXPECT_EQ(a.image_width, b.image_width);
   EXPECT_EQ(a.image_height, b.image_height);

@@ -10,6 +10,7 @@
 #include "common/features/extractor.h"
 #include "common/training/trainer.h"
 #include "common/util/image_folder.h"
+#include "common/util/thread_pool.h"
 #include "common/util/timer.h"
 #include "tools/eval/feature_cache.h"
 
@@ -108,15 +109,25 @@ const char* QueryChangeName(QueryChange change) {
 
 std::vector<SuiteSet> DevelopmentSuite(const std::string& data_dir) {
   const std::string gp = data_dir + "/gardens_point", corridor = data_dir + "/corridor";
+  // Every frame of the other data set is a frame from elsewhere for these maps.
+  const std::vector<std::string> not_gp = {corridor + "/ref", corridor + "/query"};
+  const std::vector<std::string> not_corridor = {gp + "/day_left", gp + "/day_right",
+                                                 gp + "/night_right"};
   std::vector<SuiteSet> all = {
       {"gp_day", "Gardens Point day: day_left (200) -> day_right", gp + "/day_left", 0,
-       gp + "/day_right", 0, QueryChange::kNone},
+       gp + "/day_right", 0, QueryChange::kNone, not_gp},
       {"gp_night_same", "Gardens Point night, same side: day_right 000-099 -> night_right",
-       gp + "/day_right", 100, gp + "/night_right", 0, QueryChange::kNone},
-      {"gp_night_other", "Gardens Point night, other side: day_left (200) -> night_right",
-       gp + "/day_left", 0, gp + "/night_right", 0, QueryChange::kNone},
+       gp + "/day_right", 100, gp + "/night_right", 0, QueryChange::kNone, not_gp},
+      {"gp_night_other",
+       "Gardens Point night, other side: day_left (200) -> night_right",
+       gp + "/day_left",
+       0,
+       gp + "/night_right",
+       0,
+       QueryChange::kNone,
+       {}},
       {"corridor", "corridor fish-eye 160x120: ref (111) -> query", corridor + "/ref", 0,
-       corridor + "/query", 0, QueryChange::kNone},
+       corridor + "/query", 0, QueryChange::kNone, not_corridor},
       {"gp_day_smaller", "generated: GP day queries from a camera of 1/3 the resolution",
        gp + "/day_left", 0, gp + "/day_right", 0, QueryChange::kSmaller},
       {"gp_day_darker", "generated: GP day queries at dusk (gamma 2.2, 35% light, noise)",
@@ -127,8 +138,12 @@ std::vector<SuiteSet> DevelopmentSuite(const std::string& data_dir) {
        gp + "/day_left", 0, gp + "/day_right", 0, QueryChange::kBlur},
   };
   std::vector<SuiteSet> present;
-  for (const SuiteSet& s : all) {
-    if (fs::is_directory(s.tour_dir) && fs::is_directory(s.queries_dir)) present.push_back(s);
+  for (SuiteSet s : all) {
+    if (!fs::is_directory(s.tour_dir) || !fs::is_directory(s.queries_dir)) continue;
+    s.negative_dirs.erase(std::remove_if(s.negative_dirs.begin(), s.negative_dirs.end(),
+                                         [](const std::string& d) { return !fs::is_directory(d); }),
+                          s.negative_dirs.end());
+    present.push_back(s);
   }
   return present;
 }
@@ -136,6 +151,7 @@ std::vector<SuiteSet> DevelopmentSuite(const std::string& data_dir) {
 StatusOr<SetData> LoadSet(const SuiteSet& set, const ExtractorOptions& extractor,
                           const SuiteContext& context) {
   SetData d;
+  d.extractor = extractor;
   SCENELOC_ASSIGN_OR_RETURN(const std::vector<std::string> tour_paths,
                             FirstImages(set.tour_dir, set.tour_limit));
   SCENELOC_ASSIGN_OR_RETURN(std::vector<std::string> query_paths,
@@ -162,18 +178,42 @@ StatusOr<VariantResult> RunVariant(const SetData& data, const TrainOptions& trai
   VariantResult r;
   Stopwatch watch;
   SCENELOC_ASSIGN_OR_RETURN(
-      const TrainResult trained,
+      TrainResult trained,
       TrainFromFeatures(data.tour, data.tour_names, train, context.threads, nullptr));
   r.train_seconds = watch.Seconds();
   r.landmarks = trained.map.num_landmarks();
+  r.map = std::move(trained.map);
   r.outcomes.resize(data.queries.size());
   for (size_t q = 0; q < data.queries.size(); ++q) {
     r.outcomes[q].name = data.query_names[q];
     r.outcomes[q].truth = data.truth[q];
   }
-  SCENELOC_RETURN_IF_ERROR(RunOurs(data.queries, trained.map, match, context.threads, &r.outcomes));
-  r.summary = SummariseMethod(r.outcomes, Method::kOurs);
+  SCENELOC_RETURN_IF_ERROR(RunOurs(data.queries, r.map, match, context.threads, &r.outcomes));
+  r.summary = SummariseMethod(r.outcomes, Method::kOurs, {train.tolerance, match.min_confidence});
   return r;
+}
+
+// Localises every frame of set.negative_dirs against `map`: how many come back LOCALISED.
+Status RunNegatives(const SuiteSet& set, const Map& map, const MatchOptions& match,
+                    const SetData& data, const SuiteContext& context, SetResult* result) {
+  ExtractionTarget frame;
+  frame.width = map.image_width;
+  frame.height = map.image_height;
+  frame.holistic = map.holistic_grid;
+  ThreadPool pool(context.threads);
+  for (const std::string& dir : set.negative_dirs) {
+    SCENELOC_ASSIGN_OR_RETURN(const std::vector<std::string> paths, ListImageFiles(dir));
+    SCENELOC_ASSIGN_OR_RETURN(
+        const std::vector<FeatureSet> frames,
+        ExtractCached(paths, data.extractor, context.cache_dir, context.threads, &frame));
+    for (const FeatureSet& f : frames) {
+      SCENELOC_ASSIGN_OR_RETURN(const LocaliseResult r, Localise(f, map, match, &pool));
+      ++result->negatives;
+      result->negatives_accepted += r.decision == Decision::kLocalised;
+      result->negatives_max_confidence = std::max(result->negatives_max_confidence, r.confidence);
+    }
+  }
+  return Status::Ok();
 }
 
 StatusOr<SetResult> RunSet(const SuiteSet& set, const SuiteSettings& settings,
@@ -194,8 +234,10 @@ StatusOr<SetResult> RunSet(const SuiteSet& set, const SuiteSettings& settings,
   result.outcomes = std::move(ours.outcomes);
   SCENELOC_RETURN_IF_ERROR(RunBaselines(data.queries, data.tour,
                                         settings.match.verify_ransac_threshold, &result.outcomes));
+  SCENELOC_RETURN_IF_ERROR(RunNegatives(set, ours.map, settings.match, data, context, &result));
   for (const QueryOutcome& o : paper.outcomes) result.paper_outcomes.push_back(o.ours);
-  result.summary = Summarise(result.outcomes, /*with_baseline=*/true);
+  result.summary = Summarise(result.outcomes, /*with_baseline=*/true,
+                             {settings.train.tolerance, settings.match.min_confidence});
   result.paper = paper.summary;
   return result;
 }
@@ -206,7 +248,7 @@ std::vector<AblationVariant> AblationVariants() {
       {"paper_as_printed", "@paper", "@paper"},
       {"holistic_only", "", "matching: {verify_weight: 0}"},
       {"no_holistic", "", "matching: {use_holistic: false}"},
-      {"no_holistic_shift", "", "matching: {holistic_max_shift: 0}"},
+      {"no_holistic_shift", "extractor: {holistic_max_shift: 0}", ""},
       {"no_verification", "", "matching: {verify_top: 0, use_holistic: false}"},
       {"no_angle_check", "", "matching: {verify_angle_tolerance: 0}"},
       {"no_scale_cue", "", "matching: {verify_scale_sigma: 0}"},
@@ -218,7 +260,7 @@ std::vector<AblationVariant> AblationVariants() {
       {"working_size_640", "extractor: {working_size: 640}", ""},
       {"clahe", "extractor: {clahe_clip: 2.0}", ""},
       {"root_sift", "extractor: {root_sift: true}", ""},
-      {"contrast_0.04", "extractor: {contrast_threshold: 0.04}", ""},
+      {"contrast_0.02", "extractor: {contrast_threshold: 0.02}", ""},
       {"contrast_0.01", "extractor: {contrast_threshold: 0.01}", ""},
   };
 }

@@ -30,6 +30,8 @@ struct SuiteSet {
   std::string queries_dir;
   int query_limit = 0;  // the first N query images (0 = all)
   QueryChange change = QueryChange::kNone;
+  // Folders of frames from elsewhere (another route): every one should come back UNKNOWN.
+  std::vector<std::string> negative_dirs;
 };
 
 // The development sets under `data_dir` (../shared/data): Gardens Point day, night on the
@@ -55,6 +57,11 @@ struct SetResult {
   MethodSummary paper;                 // the paper as printed
   std::vector<QueryOutcome> outcomes;  // per query (ours, baselines)
   std::vector<MethodOutcome> paper_outcomes;
+  // Frames of set.negative_dirs: how many our map would LOCALISE, and their highest
+  // confidence.
+  size_t negatives = 0;
+  size_t negatives_accepted = 0;
+  float negatives_max_confidence = 0;
 };
 
 struct SuiteContext {
@@ -69,6 +76,7 @@ StatusOr<SetResult> RunSet(const SuiteSet& set, const SuiteSettings& settings,
 
 // A set's features, extracted (or read from the cache) with one extractor's settings.
 struct SetData {
+  ExtractorOptions extractor;  // what they were extracted with
   std::vector<FeatureSet> tour, queries;
   std::vector<std::string> tour_names, query_names;
   std::vector<int> truth;
@@ -79,6 +87,7 @@ StatusOr<SetData> LoadSet(const SuiteSet& set, const ExtractorOptions& extractor
 // One engine variant on a loaded set: trains with `train` (whose extractor settings must be
 // those the data was extracted with) and localises every query with `match`.
 struct VariantResult {
+  Map map;  // the map trained
   MethodSummary summary;
   std::vector<QueryOutcome> outcomes;
   int landmarks = 0;

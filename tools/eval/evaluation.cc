@@ -96,9 +96,12 @@ const MethodOutcome& OutcomeOf(const QueryOutcome& o, Method method) {
   return o.ours;
 }
 
-MethodSummary SummariseMethod(const std::vector<QueryOutcome>& outcomes, Method method) {
+MethodSummary SummariseMethod(const std::vector<QueryOutcome>& outcomes, Method method,
+                              const Judging& judging) {
   MethodSummary m;
   std::vector<double> times;
+  std::vector<float> confidence;
+  std::vector<bool> correct;
   for (const QueryOutcome& o : outcomes) {
     const MethodOutcome& r = OutcomeOf(o, method);
     for (int k = 0; k <= kMaxTolerance; ++k) {
@@ -106,7 +109,10 @@ MethodSummary SummariseMethod(const std::vector<QueryOutcome>& outcomes, Method 
     }
     m.mean_confidence += r.confidence;
     times.push_back(r.ms);
+    confidence.push_back(r.confidence);
+    correct.push_back(r.predicted >= 0 && std::abs(r.predicted - o.truth) <= judging.tolerance);
   }
+  m.confidence = ComputeConfidenceMetrics(confidence, correct, judging.threshold);
   const double n = std::max<double>(1, static_cast<double>(outcomes.size()));
   for (double& r : m.match_rate) r /= n;
   m.mean_confidence /= n;
@@ -114,13 +120,14 @@ MethodSummary SummariseMethod(const std::vector<QueryOutcome>& outcomes, Method 
   return m;
 }
 
-EvalSummary Summarise(const std::vector<QueryOutcome>& outcomes, bool with_baseline) {
+EvalSummary Summarise(const std::vector<QueryOutcome>& outcomes, bool with_baseline,
+                      const Judging& judging) {
   EvalSummary s;
   s.queries = outcomes.size();
-  s.ours = SummariseMethod(outcomes, Method::kOurs);
+  s.ours = SummariseMethod(outcomes, Method::kOurs, judging);
   if (with_baseline) {
-    s.baseline = SummariseMethod(outcomes, Method::kBaseline);
-    s.reranked = SummariseMethod(outcomes, Method::kReranked);
+    s.baseline = SummariseMethod(outcomes, Method::kBaseline, judging);
+    s.reranked = SummariseMethod(outcomes, Method::kReranked, judging);
   }
   s.has_baseline = with_baseline;
   const auto stage = [&](auto field) {
@@ -169,7 +176,7 @@ Status RunBaselines(const std::vector<FeatureSet>& queries, const std::vector<Fe
     const BaselineResult r = baseline->Localise(queries[q]);
     const double ms = watch.Milliseconds();
     QueryOutcome& o = (*outcomes)[q];
-    o.baseline = {r.best, r.confidence, ms};
+    o.baseline = {r.best, r.confidence, ms - r.rerank_ms};
     o.reranked = {r.reranked_best, r.reranked_confidence, ms};
   }
   return Status::Ok();

@@ -11,6 +11,7 @@
 #include "common/map/map.h"
 #include "common/matching/localiser.h"
 #include "common/util/status.h"
+#include "tools/eval/confidence_metrics.h"
 
 namespace sceneloc {
 
@@ -58,6 +59,15 @@ struct MethodSummary {
   double match_rate[kMaxTolerance + 1] = {0, 0, 0, 0};  // |predicted - truth| <= k
   double mean_confidence = 0;
   Percentiles match_ms;
+  // How well the confidence separates answers within the tolerance from the others, and
+  // its acceptance at the decision threshold (confidence_metrics.h).
+  ConfidenceMetrics confidence;
+};
+
+// How answers are judged: correct within `tolerance` frames; accepted at `threshold`.
+struct Judging {
+  int tolerance = 2;
+  double threshold = 0.8;
 };
 
 // Which method of a QueryOutcome.
@@ -77,10 +87,12 @@ struct EvalSummary {
   Percentiles descriptor_ms, neighbourhood_ms, likelihood_ms, holistic_ms, verify_ms;
 };
 
-MethodSummary SummariseMethod(const std::vector<QueryOutcome>& outcomes, Method method);
+MethodSummary SummariseMethod(const std::vector<QueryOutcome>& outcomes, Method method,
+                              const Judging& judging = {});
 
 // Summarises outcomes; `with_baseline` says whether the baseline fields are meaningful.
-EvalSummary Summarise(const std::vector<QueryOutcome>& outcomes, bool with_baseline);
+EvalSummary Summarise(const std::vector<QueryOutcome>& outcomes, bool with_baseline,
+                      const Judging& judging = {});
 
 // Localises every query (already extracted) against the map with `threads` threads and
 // fills outcome.ours (and the stages, matches and candidates).

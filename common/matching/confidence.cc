@@ -1,0 +1,65 @@
+#include "common/matching/confidence.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace sceneloc {
+
+const char* ConfidenceModelName(ConfidenceModel model) {
+  return model == ConfidenceModel::kPaper ? "paper" : "calibrated";
+}
+
+StatusOr<ConfidenceModel> ParseConfidenceModel(const std::string& name) {
+  if (name == "calibrated") return ConfidenceModel::kCalibrated;
+  if (name == "paper") return ConfidenceModel::kPaper;
+  return InvalidArgument("confidence_model must be 'calibrated' or 'paper', got '" + name + "'");
+}
+
+ConfidenceModel SupportedModel(const Map& map, ConfidenceModel wanted) {
+  if (wanted == ConfidenceModel::kCalibrated && !map.calibration.valid) {
+    return ConfidenceModel::kPaper;
+  }
+  return wanted;
+}
+
+double LocationPosterior(const std::vector<float>& location_scores, int answer, int tolerance,
+                         double temperature) {
+  if (location_scores.empty()) return 0;
+  const auto [low, high] = std::minmax_element(location_scores.begin(), location_scores.end());
+  if (*low == *high) return 0;  // no evidence tells any location from another
+  const float top = *high;
+  double total = 0, near = 0;
+  for (size_t l = 0; l < location_scores.size(); ++l) {
+    const double w = std::exp((location_scores[l] - top) / temperature);  // <= 1: no overflow
+    total += w;
+    if (std::abs(static_cast<int>(l) - answer) <= tolerance) near += w;
+  }
+  return near / total;
+}
+
+double InMapProbability(const Map& map, double nearest_holistic_distance) {
+  const Calibration& c = map.calibration;
+  if (!c.valid || nearest_holistic_distance < 0) return 1;
+  const double x = (c.off_map_distance - nearest_holistic_distance) / c.off_map_spread;
+  return 1 /
+         (1 + std::exp(-(map.options.map_evidence_slope * x + map.options.map_evidence_offset)));
+}
+
+double CalibratedConfidence(const Map& map, const std::vector<float>& location_scores, int answer,
+                            double nearest_holistic_distance) {
+  return LocationPosterior(location_scores, answer, map.options.tolerance,
+                           map.options.confidence_temperature) *
+         InMapProbability(map, nearest_holistic_distance);
+}
+
+double PaperConfidence(const std::vector<float>& likelihood) {
+  if (likelihood.empty()) return 0;
+  if (likelihood.size() == 1) return likelihood[0] > 0 ? 1 : 0;
+  std::vector<float> top(2);
+  std::partial_sort_copy(likelihood.begin(), likelihood.end(), top.begin(), top.end(),
+                         std::greater<float>());
+  const double sum = static_cast<double>(top[0]) + top[1];
+  return sum > 0 ? top[0] / sum : 0;
+}
+
+}  // namespace sceneloc

@@ -1,0 +1,59 @@
+// The confidence of an answer: the probability that the true location lies within the
+// map's tolerance (TrainOptions::tolerance frames) of the answer. Our departure from the
+// paper, whose L1 / (L1 + L2) is kept as the "paper" model: neighbouring tour frames share
+// most landmarks, so the second best is nearly always the first's neighbour and that ratio
+// sits near 0.5 whatever happens.
+//
+// The calibrated model multiplies two probabilities (docs/results.md measures both):
+//   P(within tolerance | the query shows a place of the route): every location's fused
+//     evidence s_l (LocationScores, a robust z-scale) read as a posterior over locations,
+//     exp(s_l / T) normalised over the tour, summed over the answer's tolerance window.
+//     Neighbouring frames share the answer's mass instead of competing with it; a distant
+//     look-alike with similar evidence halves it.
+//   P(the query shows a place of the route): a logistic in how much closer the query's
+//     nearest tour image is (smallest holistic distance) than a frame that shows no place
+//     of the route comes (the map's calibration, measured at training time from the tour).
+// T, the logistic's slope and offset are constants of the method (TrainOptions), the
+// off-map level and its spread the map's own.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "common/map/map.h"
+#include "common/util/status.h"
+
+namespace sceneloc {
+
+enum class ConfidenceModel {
+  kCalibrated,  // the calibrated probability above (needs a calibrated map)
+  kPaper,       // L1 / (L1 + L2) of the two locations with the highest L (eq. 3)
+};
+const char* ConfidenceModelName(ConfidenceModel model);
+StatusOr<ConfidenceModel> ParseConfidenceModel(const std::string& name);
+
+// The model a map supports when `wanted` is asked for: the calibrated model needs a map
+// calibration (maps of format version 1 have none) and falls back to the paper's.
+ConfidenceModel SupportedModel(const Map& map, ConfidenceModel wanted);
+
+// P(within tolerance | in the map): the posterior mass of locations within `tolerance`
+// of `answer`, with location_scores[l] read as log-likelihoods at `temperature`.
+// 0 when there are no scores or all are equal (nothing tells any location from another).
+// REQUIRES: temperature > 0, answer < location_scores.size().
+double LocationPosterior(const std::vector<float>& location_scores, int answer, int tolerance,
+                         double temperature);
+
+// P(in the map) from the query's smallest holistic distance to the tour; 1 when it is
+// unknown (negative: no holistic descriptor) or the map is uncalibrated.
+double InMapProbability(const Map& map, double nearest_holistic_distance);
+
+// The calibrated confidence: LocationPosterior * InMapProbability, with the map's
+// tolerance and constants.
+double CalibratedConfidence(const Map& map, const std::vector<float>& location_scores, int answer,
+                            double nearest_holistic_distance);
+
+// The paper's confidence: L1 / (L1 + L2) over the two highest L; 0 when nothing matched,
+// 1 with a single location.
+double PaperConfidence(const std::vector<float>& likelihood);
+
+}  // namespace sceneloc
