@@ -1,6 +1,9 @@
 // Speed of the two per-frame stages the targets name, on real data when given:
 //   extract   one 960x540 frame to features (both descriptors), one core
 //   localise  features to a ranked answer (everything after extraction), 1 and 2 threads
+//   confidence  what the calibrated confidence adds to a localisation: the per-location
+//             evidence scale and the posterior (the holistic distances and the verified
+//             candidates it reads are computed for the ranking anyway)
 //
 //   localise_benchmark [--map FILE --queries DIR] [benchmark flags]
 //   e.g. --map gp.scnl --queries ../shared/data/gardens_point/day_right
@@ -17,6 +20,9 @@
 
 #include "common/features/extractor.h"
 #include "common/map/map_io.h"
+#include "common/matching/confidence.h"
+#include "common/matching/evidence.h"
+#include "common/matching/holistic_similarity.h"
 #include "common/matching/localiser.h"
 #include "common/synthetic/tour_generator.h"
 #include "common/training/trainer.h"
@@ -91,8 +97,46 @@ void BM_Localise(benchmark::State& state) {
   state.SetLabel(std::to_string(fixture->map.num_landmarks()) + " landmarks");
 }
 
+// The confidence's own cost, per query: LocationScores over every location and the
+// calibrated posterior, from a localisation's candidates and holistic z-scores.
+void BM_Confidence(benchmark::State& state) {
+  MatchOptions options;
+  struct Input {
+    std::vector<CandidateEvidence> candidates;
+    std::vector<float> holistic_z;
+    float nearest = -1;
+    int answer = 0;
+  };
+  std::vector<Input> inputs;
+  for (const FeatureSet& q : fixture->queries) {
+    auto r = Localise(q, fixture->map, options, nullptr);
+    if (!r.ok() || r->ranked.empty()) continue;
+    Input in;
+    in.candidates = r->candidates;
+    in.holistic_z = RobustZ(HolisticDistances(
+        q, fixture->map, fixture->map.options.extractor.holistic.max_shift, nullptr));
+    in.nearest = r->nearest_holistic_distance;
+    in.answer = r->ranked[0].index;
+    inputs.push_back(std::move(in));
+  }
+  if (inputs.empty()) {
+    state.SkipWithError("no query localised");
+    return;
+  }
+  size_t i = 0;
+  for (auto _ : state) {
+    const Input& in = inputs[i++ % inputs.size()];
+    const std::vector<float> scores = LocationScores(
+        in.candidates, in.holistic_z, static_cast<size_t>(fixture->map.num_images()), options);
+    double c = CalibratedConfidence(fixture->map, scores, in.answer, in.nearest);
+    benchmark::DoNotOptimize(c);
+  }
+  state.SetLabel(std::to_string(fixture->map.num_images()) + " locations");
+}
+
 BENCHMARK(BM_Extract)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_Localise)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_Confidence)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 }  // namespace sceneloc

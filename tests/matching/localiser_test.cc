@@ -114,7 +114,9 @@ TEST(LocaliserTest, VerificationRanksTheTrueImageFirst) {
   EXPECT_NEAR(r->ranked[0].log_scale, 0.0f, 1e-6);
   EXPECT_GT(r->confidence, 0.5f);
   for (size_t i = 1; i < r->ranked.size(); ++i) {
-    if (r->ranked[i].inliers >= 0) EXPECT_LE(r->ranked[i].inliers, r->ranked[0].inliers);
+    if (r->ranked[i].inliers >= 0) {
+      EXPECT_LE(r->ranked[i].inliers, r->ranked[0].inliers);
+    }
   }
 }
 

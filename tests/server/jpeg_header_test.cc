@@ -56,7 +56,9 @@ TEST(JpegHeaderTest, RandomBytesAreSafe) {
     for (size_t i = 0; i < n; ++i)
       bytes.push_back(static_cast<char>(rng() % 4 == 0 ? 0xFF : rng()));
     auto d = ReadJpegDimensions(bytes);
-    if (d.ok()) EXPECT_GT(d->width * d->height, 0);
+    if (d.ok()) {
+      EXPECT_GT(d->width * d->height, 0);
+    }
   }
 }
 
