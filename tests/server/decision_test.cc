@@ -102,6 +102,15 @@ TEST_F(DecisionTest, RequestSetsItsOwnThreshold) {
   EXPECT_EQ(reply->decision(), v1::UNKNOWN);
 }
 
+// A reply that carries no decision (an older server, a field lost on the way) must read as
+// "do not act on it".
+TEST(DecisionWireTest, MissingDecisionReadsUnknown) {
+  EXPECT_EQ(v1::LocaliseReply().decision(), v1::UNKNOWN);
+  v1::LocaliseReply parsed;
+  ASSERT_TRUE(parsed.ParseFromString(std::string()));
+  EXPECT_EQ(parsed.decision(), v1::UNKNOWN);
+}
+
 // A threshold outside [0, 1] (or not a number) is refused with INVALID_ARGUMENT.
 TEST_F(DecisionTest, ThresholdOutsideTheUnitIntervalRefused) {
   for (float bad : {1.5f, -0.1f, std::nanf("")}) {
