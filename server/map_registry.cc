@@ -106,7 +106,7 @@ StatusOr<std::shared_ptr<const LoadedMap>> MapRegistry::Load(const std::string& 
     return fail(InvalidArgument("'" + path + "' does not name a map (no file stem)"));
   }
   MapFileInfo info;
-  StatusOr<Map> map = LoadMap(path, &info);
+  StatusOr<Map> map = LoadMap(path, &info, options_.load);
   if (!map.ok()) return fail(map.status());
   const Status tested = SelfTest(*map);
   if (!tested.ok()) return fail(FailedPrecondition(path + ": " + tested.message()));
@@ -139,14 +139,20 @@ bool MapRegistry::Remove(const std::string& name) {
   return true;
 }
 
-Status MapRegistry::LoadDirectory(const std::string& dir, std::vector<Status>* failures) {
+Status MapRegistry::LoadDirectory(const std::string& dir, std::vector<Status>* failures,
+                                  std::vector<std::string>* ignored) {
   std::error_code ec;
   std::vector<std::string> paths;
   for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string file = it->path().filename().string();
     if (it->path().extension() == kMapFileExtension && it->is_regular_file(ec)) {
       paths.push_back(it->path().string());
+    } else if (ignored != nullptr && !file.empty() && file[0] != '.' &&
+               file.find(std::string(kMapFileExtension) + ".tmp.") == std::string::npos) {
+      ignored->push_back(file);
     }
   }
+  if (ignored != nullptr) std::sort(ignored->begin(), ignored->end());
   if (ec) return IoError("maps directory '" + dir + "' cannot be listed: " + ec.message());
   std::sort(paths.begin(), paths.end());
   for (const std::string& path : paths) {

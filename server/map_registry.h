@@ -22,6 +22,7 @@
 
 #include "common/features/extractor.h"
 #include "common/map/map.h"
+#include "common/map/map_io.h"
 #include "common/matching/localiser.h"
 #include "common/util/status.h"
 
@@ -49,6 +50,8 @@ class MapRegistry {
     MatchOptions self_test;
     // Tour locations probed by the self-test (spread over the tour), 0 = none.
     int self_test_locations = 3;
+    // Limits on the map files read (LoadMap).
+    MapLoadOptions load;
   };
 
   explicit MapRegistry(const Options& options);
@@ -69,9 +72,12 @@ class MapRegistry {
   bool Remove(const std::string& name);
 
   // Loads every *.scnl file in `dir` (in name order). Each failure is appended to
-  // *failures (which may be null) and does not stop the others. Error only when `dir`
-  // cannot be listed.
-  Status LoadDirectory(const std::string& dir, std::vector<Status>* failures);
+  // *failures (which may be null) and does not stop the others. The names of the other
+  // entries (not hidden, not a map being written by SaveMap) go to *ignored when it is not
+  // null, so an operator who named a map `lab.map` is told. Error only when `dir` cannot
+  // be listed.
+  Status LoadDirectory(const std::string& dir, std::vector<Status>* failures,
+                       std::vector<std::string>* ignored = nullptr);
 
   uint64_t loads() const;          // successful loads so far
   uint64_t load_failures() const;  // failed loads so far

@@ -40,12 +40,20 @@ Status ResolveOptions(const std::string& config_path,
 // Loads (or reloads) every map file in `dir`; false when `dir` cannot be listed.
 bool LoadAll(sceneloc::MapRegistry* registry, const std::string& dir) {
   std::vector<Status> failures;
-  const Status listed = registry->LoadDirectory(dir, &failures);
+  std::vector<std::string> ignored;
+  const Status listed = registry->LoadDirectory(dir, &failures, &ignored);
   if (!listed.ok()) {
     spdlog::error("{}", listed.message());
     return false;
   }
   for (const Status& failure : failures) spdlog::error("map not loaded: {}", failure.ToString());
+  if (!ignored.empty()) {
+    std::string names;
+    for (size_t i = 0; i < ignored.size() && i < 10; ++i) names += (i ? ", " : "") + ignored[i];
+    if (ignored.size() > 10) names += ", ...";
+    spdlog::warn("{}: {} entr{} not served (map files end in .scnl): {}", dir, ignored.size(),
+                 ignored.size() == 1 ? "y" : "ies", names);
+  }
   for (const auto& map : registry->List()) {
     spdlog::info("map {} generation {} checksum {:08x}: {} locations, {} landmarks ({})", map->name,
                  map->generation, map->checksum, map->map.num_images(), map->map.num_landmarks(),
@@ -89,6 +97,7 @@ int main(int argc, char** argv) {
 
   sceneloc::MapRegistry::Options registry_options;
   registry_options.self_test = options.matching;
+  registry_options.load.max_file_bytes = static_cast<uint64_t>(options.limits.max_map_bytes);
   sceneloc::MapRegistry registry(registry_options);
   if (!LoadAll(&registry, options.maps_dir)) return 2;
 

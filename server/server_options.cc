@@ -37,6 +37,8 @@ SettingTable Fields(ServerOptions* o) {
        "largest JPEG width x height, pixels"},
       {"limits", "max_keypoints", &l->max_keypoints, 1, 1000000, "most keypoints in a feature set"},
       {"limits", "max_top_k", &l->max_top_k, 1, 1000, "most ranked locations per request"},
+      {"limits", "max_map_bytes", &l->max_map_bytes, 1024, 1e15,
+       "largest map file read, bytes; larger ones are skipped unread"},
   };
   for (SettingField& f : MatchSettingTable(&o->matching)) {
     f.help = "matching." + f.key + " (configs/match.yaml)";
@@ -53,6 +55,7 @@ Status RequestLimits::Validate() const {
   if (max_image_pixels < 256) return InvalidArgument("max_image_pixels must be >= 256");
   if (max_keypoints < 1) return InvalidArgument("max_keypoints must be >= 1");
   if (max_top_k < 1) return InvalidArgument("max_top_k must be >= 1");
+  if (max_map_bytes < 1024) return InvalidArgument("max_map_bytes must be >= 1024");
   return Status::Ok();
 }
 

@@ -85,9 +85,33 @@ class PayloadWriter {
 // Reads fields in the file's layout from a bounds-checked buffer. The first failure
 // sticks: later fields are left untouched and status() reports the first problem. A
 // count is checked against the bytes left before anything is allocated for it.
+// Where a PayloadReader's bytes come from: memory, or a file read as it is parsed (so a
+// map is never held twice, and a file that shrinks under the reader is a read error, not
+// a SIGBUS as it would be with mmap).
+class ByteSource {
+ public:
+  virtual ~ByteSource() = default;
+  // Copies the next n bytes to `out`; an error when they cannot all be had.
+  virtual Status Read(void* out, size_t n) = 0;
+};
+
+class MemorySource : public ByteSource {
+ public:
+  explicit MemorySource(const char* data) : data_(data) {}
+  Status Read(void* out, size_t n) override {
+    if (n > 0) std::memcpy(out, data_, n);
+    data_ += n;
+    return Status::Ok();
+  }
+
+ private:
+  const char* data_;  // the caller checked that enough bytes follow
+};
+
 class PayloadReader {
  public:
-  PayloadReader(const char* data, size_t size) : data_(data), size_(size) {}
+  // Reads `size` payload bytes from `source`.
+  PayloadReader(ByteSource* source, size_t size) : source_(source), size_(size) {}
 
   const Status& status() const { return status_; }
   size_t remaining() const { return size_ - pos_; }
@@ -107,8 +131,8 @@ class PayloadReader {
     uint64_t n = 0;
     Field(name, n);
     if (!Fits(name, n, 1)) return;
-    value.assign(data_ + pos_, n);
-    pos_ += n;
+    value.resize(n);
+    Copy(name, value.data(), n);
   }
   void Field(const char* name, std::vector<std::string>& values) {
     uint64_t n = 0;
@@ -130,14 +154,15 @@ class PayloadReader {
 
  private:
   // Whether `count` elements of `element_bytes` fit in what is left; records an error
-  // if not (or if an earlier field failed).
+  // if not (or if an earlier field failed). Checked before anything is allocated, so a
+  // declared count can never ask for more memory than the payload holds.
   bool Fits(const char* name, uint64_t count, size_t element_bytes);
   void Copy(const char* name, void* out, size_t n);
   void Fail(const std::string& message) {
     if (status_.ok()) status_ = DataLoss(message);
   }
 
-  const char* data_;
+  ByteSource* source_;
   size_t size_;
   size_t pos_ = 0;
   Status status_;
@@ -175,7 +200,10 @@ void PayloadReader::Copy(const char* name, void* out, size_t n) {
          std::to_string(n) + " bytes but only " + std::to_string(remaining()) + " are left");
     return;
   }
-  if (n > 0) std::memcpy(out, data_ + pos_, n);
+  if (Status read = source_->Read(out, n); !read.ok()) {
+    status_ = read;
+    return;
+  }
   pos_ += n;
 }
 
@@ -394,33 +422,52 @@ StatusOr<MapFileInfo> ParseHeader(const char* data, size_t size, const std::stri
   return info;
 }
 
-StatusOr<Map> ParseBuffer(const char* data, size_t size, const std::string& name,
-                          MapFileInfo* info_out) {
-  SCENELOC_ASSIGN_OR_RETURN(const MapFileInfo info, ParseHeader(data, size, name));
-  const char* payload = data + kMapHeaderBytes;
-  const uint32_t computed = Crc32(payload, info.payload_bytes);
-  if (computed != info.checksum) {
-    return DataLoss(Label(name) + " checksum mismatch: payload CRC-32 is " + Hex(computed) +
-                    ", header says " + Hex(info.checksum) + " (corrupt file)");
-  }
+// Reads the payload's fields (the reader's bytes are not yet known to be intact) and, when
+// they parse, validates and finalises the map.
+// Version-1 maps are brought to today's terms (UpgradeV1).
+StatusOr<Map> ReadPayload(PayloadReader& reader, const MapFileInfo& info, const std::string& name) {
   Map map;
   V1Fields v1;
-  PayloadReader reader(payload, info.payload_bytes);
   TransferMap(reader, map, info.format_version, v1);
   if (!reader.status().ok()) {
-    return DataLoss(Label(name) + " is malformed: " + reader.status().message());
+    if (reader.status().code() == StatusCode::kDataLoss) {
+      return DataLoss(Label(name) + " is malformed: " + reader.status().message());
+    }
+    return reader.status();
   }
   if (reader.remaining() != 0) {
     return DataLoss(Label(name) + " is malformed: " + std::to_string(reader.remaining()) +
                     " payload bytes follow the last field");
   }
   if (info.format_version == 1) UpgradeV1(v1, &map);
+  return map;
+}
+
+Status ChecksumMismatch(const std::string& name, uint32_t computed, uint32_t stored) {
+  return DataLoss(Label(name) + " checksum mismatch: payload CRC-32 is " + Hex(computed) +
+                  ", header says " + Hex(stored) + " (corrupt file)");
+}
+
+StatusOr<Map> FinishMap(Map map, const MapFileInfo& info, const std::string& name,
+                        MapFileInfo* info_out) {
   if (Status valid = map.Validate(); !valid.ok()) {
     return DataLoss(Label(name) + ": " + valid.message());
   }
   map.Finalize();
   if (info_out != nullptr) *info_out = info;
   return map;
+}
+
+StatusOr<Map> ParseBuffer(const char* data, size_t size, const std::string& name,
+                          MapFileInfo* info_out) {
+  SCENELOC_ASSIGN_OR_RETURN(const MapFileInfo info, ParseHeader(data, size, name));
+  const char* payload = data + kMapHeaderBytes;
+  const uint32_t computed = Crc32(payload, info.payload_bytes);
+  if (computed != info.checksum) return ChecksumMismatch(name, computed, info.checksum);
+  MemorySource source(payload);
+  PayloadReader reader(&source, info.payload_bytes);
+  SCENELOC_ASSIGN_OR_RETURN(Map map, ReadPayload(reader, info, name));
+  return FinishMap(std::move(map), info, name, info_out);
 }
 
 // --- Files ---
@@ -475,37 +522,144 @@ Status WriteFileAtomically(const std::string& path, const std::string& bytes) {
   return SyncDirectory(dir.empty() ? "." : dir);
 }
 
-// Reads the whole regular file at `path` into `buffer`; returns its size.
-StatusOr<size_t> ReadWholeFile(const std::string& path, std::unique_ptr<char[]>* buffer) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0 && errno == ENOENT) return NotFound(Label(path) + " does not exist");
-  if (fd < 0) return OsError("cannot open map file", path, errno);
-  struct stat st {};
-  if (::fstat(fd, &st) != 0) {
-    const int error = errno;
-    ::close(fd);
-    return OsError("cannot stat map file", path, error);
-  }
-  if (!S_ISREG(st.st_mode)) {
-    ::close(fd);
-    return IoError("cannot read " + Label(path) + ": not a regular file");
-  }
-  // Uninitialised on purpose: every byte used is read below.
-  buffer->reset(new char[static_cast<size_t>(st.st_size) + 1]);
-  size_t done = 0;
-  while (done < static_cast<size_t>(st.st_size)) {
-    const ssize_t n = ::read(fd, buffer->get() + done, static_cast<size_t>(st.st_size) - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0) {
-      const int error = errno;
-      ::close(fd);
-      return OsError("cannot read map file", path, error);
+// A map file's payload read as it is parsed: small fields through a 64 KiB buffer, arrays
+// straight into their destination; the CRC-32 of every byte delivered is kept.
+class FileSource : public ByteSource {
+ public:
+  FileSource(int fd, std::string path) : fd_(fd), path_(std::move(path)) {}
+
+  Status Read(void* out, size_t n) override {
+    char* to = static_cast<char*>(out);
+    const size_t from_buffer = std::min(n, end_ - begin_);
+    if (from_buffer > 0) std::memcpy(to, buffer_.data() + begin_, from_buffer);
+    begin_ += from_buffer;
+    size_t done = from_buffer;
+    if (done < n && n - done >= buffer_.size()) {  // large: no copy through the buffer
+      SCENELOC_RETURN_IF_ERROR(ReadFully(to + done, n - done));
+      done = n;
     }
-    if (n == 0) break;  // the file shrank since fstat; parsing reports the truncation
-    done += static_cast<size_t>(n);
+    while (done < n) {
+      SCENELOC_RETURN_IF_ERROR(Refill());
+      const size_t take = std::min(n - done, end_ - begin_);
+      std::memcpy(to + done, buffer_.data() + begin_, take);
+      begin_ += take;
+      done += take;
+    }
+    crc_ = Crc32(out, n, crc_);
+    return Status::Ok();
   }
-  ::close(fd);
+
+  // Reads and checksums `n` more bytes without keeping them.
+  Status Skip(size_t n) {
+    while (n > 0) {
+      const size_t take = std::min(n, buffer_.size());
+      SCENELOC_RETURN_IF_ERROR(Read(scratch_.data(), take));
+      n -= take;
+    }
+    return Status::Ok();
+  }
+
+  uint32_t crc() const { return crc_; }
+
+ private:
+  Status Refill() {
+    begin_ = 0;
+    end_ = 0;
+    for (;;) {
+      const ssize_t got = ::read(fd_, buffer_.data(), buffer_.size());
+      if (got < 0 && errno == EINTR) continue;
+      if (got < 0) return OsError("cannot read map file", path_, errno);
+      if (got == 0) return Shrunk();
+      end_ = static_cast<size_t>(got);
+      return Status::Ok();
+    }
+  }
+  Status ReadFully(char* to, size_t n) {
+    while (n > 0) {
+      const ssize_t got = ::read(fd_, to, std::min<size_t>(n, 1 << 30));
+      if (got < 0 && errno == EINTR) continue;
+      if (got < 0) return OsError("cannot read map file", path_, errno);
+      if (got == 0) return Shrunk();
+      to += got;
+      n -= static_cast<size_t>(got);
+    }
+    return Status::Ok();
+  }
+  Status Shrunk() const {
+    return DataLoss(Label(path_) + " is truncated: it ended before its payload did (was it " +
+                    "being written or truncated while it was read?)");
+  }
+
+  int fd_;
+  std::string path_;
+  std::vector<char> buffer_ = std::vector<char>(64 * 1024);
+  std::vector<char> scratch_ = std::vector<char>(64 * 1024);
+  size_t begin_ = 0, end_ = 0;
+  uint32_t crc_ = 0;
+};
+
+// Closes a file descriptor on every path out.
+class FdCloser {
+ public:
+  explicit FdCloser(int fd) : fd_(fd) {}
+  ~FdCloser() { ::close(fd_); }
+  FdCloser(const FdCloser&) = delete;
+  FdCloser& operator=(const FdCloser&) = delete;
+
+ private:
+  int fd_;
+};
+
+// Reads up to `n` bytes from the start of the file (fewer if it is shorter).
+StatusOr<size_t> ReadPrefix(int fd, char* out, size_t n, const std::string& path) {
+  size_t done = 0;
+  while (done < n) {
+    const ssize_t got = ::read(fd, out + done, n - done);
+    if (got < 0 && errno == EINTR) continue;
+    if (got < 0) return OsError("cannot read map file", path, errno);
+    if (got == 0) break;
+    done += static_cast<size_t>(got);
+  }
   return done;
+}
+
+std::string FormatBytes(uint64_t bytes) {
+  std::ostringstream out;
+  out << bytes << " bytes";
+  if (bytes >= (uint64_t{1} << 20)) {
+    out.precision(1);
+    out << std::fixed << " (" << static_cast<double>(bytes) / (1 << 20) << " MiB)";
+  }
+  return out.str();
+}
+
+// The header, then the limit, then the payload streamed with its CRC: a file's declared
+// sizes are checked before a byte of its payload is read or any memory is set aside for it.
+StatusOr<Map> LoadFromFile(int fd, const std::string& path, uint64_t file_size,
+                           const MapLoadOptions& options, MapFileInfo* info_out) {
+  char header[kMapHeaderBytes];
+  SCENELOC_ASSIGN_OR_RETURN(const size_t got, ReadPrefix(fd, header, sizeof(header), path));
+  if (got < std::min<uint64_t>(file_size, kMapHeaderBytes)) {
+    return DataLoss(Label(path) + " is truncated: it shrank while it was read");
+  }
+  SCENELOC_ASSIGN_OR_RETURN(const MapFileInfo info,
+                            ParseHeader(header, static_cast<size_t>(file_size), path));
+  if (file_size > options.max_file_bytes) {
+    return ResourceExhausted(
+        Label(path) + " is " + FormatBytes(file_size) +
+        ", above the limit max_map_bytes = " + FormatBytes(options.max_file_bytes));
+  }
+  FileSource source(fd, path);
+  PayloadReader reader(&source, static_cast<size_t>(info.payload_bytes));
+  StatusOr<Map> map = ReadPayload(reader, info, path);
+  if (!map.ok() && map.status().code() != StatusCode::kDataLoss) return map.status();
+  if (!map.ok()) {
+    // A malformed payload is most often a corrupt one: say so if the checksum agrees.
+    if (!source.Skip(reader.remaining()).ok()) return map.status();
+  }
+  if (source.crc() != info.checksum) return ChecksumMismatch(path, source.crc(), info.checksum);
+  if (!map.ok()) return map.status();
+  return FinishMap(std::move(map).value(), info, path, info_out);
 }
 
 }  // namespace
@@ -540,10 +694,16 @@ Status SaveMap(const Map& map, const std::string& path, MapFileInfo* info) {
   return Status::Ok();
 }
 
-StatusOr<Map> LoadMap(const std::string& path, MapFileInfo* info) {
-  std::unique_ptr<char[]> buffer;
-  SCENELOC_ASSIGN_OR_RETURN(const size_t size, ReadWholeFile(path, &buffer));
-  return ParseBuffer(buffer.get(), size, path, info);
+StatusOr<Map> LoadMap(const std::string& path, MapFileInfo* info, const MapLoadOptions& options) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0 && errno == ENOENT) return NotFound(Label(path) + " does not exist");
+  if (fd < 0) return OsError("cannot open map file", path, errno);
+  FdCloser closer(fd);
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) return OsError("cannot stat map file", path, errno);
+  if (!S_ISREG(st.st_mode)) return IoError("cannot read " + Label(path) + ": not a regular file");
+  (void)::posix_fadvise(fd, 0, 0, POSIX_FADV_SEQUENTIAL);
+  return LoadFromFile(fd, path, static_cast<uint64_t>(st.st_size), options, info);
 }
 
 StatusOr<Map> ParseMap(const std::string& bytes, const std::string& name_for_errors,

@@ -99,12 +99,26 @@ struct MapFileInfo {
 // On success, fills *info when info is not null.
 Status SaveMap(const Map& map, const std::string& path, MapFileInfo* info = nullptr);
 
-// Reads, checks, validates and finalises the map file at `path`. Errors name the file:
-// NotFound (no such file), IoError (cannot be read), InvalidArgument (not a map file),
-// Unimplemented (newer format version or unknown header flags), DataLoss (empty,
-// truncated, checksum mismatch, malformed payload, or a map that fails Validate()).
-// On success, fills *info when info is not null.
-StatusOr<Map> LoadMap(const std::string& path, MapFileInfo* info = nullptr);
+// The largest map file LoadMap reads by default: 1 GiB (a 200-image tour makes 22 MB).
+inline constexpr uint64_t kDefaultMaxMapBytes = uint64_t{1} << 30;
+
+struct MapLoadOptions {
+  uint64_t max_file_bytes = kDefaultMaxMapBytes;  // larger files are refused unread
+};
+
+// Reads, checks, validates and finalises the map file at `path`. A map file is untrusted
+// input: the 32-byte header and the sizes it declares are checked against the file and
+// `options` before any of the payload is read, and the payload is parsed as it is read
+// (every declared count checked against what is left before anything is allocated), so
+// memory never exceeds the map itself plus 128 KiB, and a file that shrinks while it is
+// read is an error, not a crash. Errors name the file: NotFound (no such file), IoError
+// (cannot be read, not a regular file), InvalidArgument (not a map file), Unimplemented
+// (newer format version or unknown header flags), ResourceExhausted (larger than
+// options.max_file_bytes, with both sizes), DataLoss (empty, truncated, checksum
+// mismatch, malformed payload, or a map that fails Validate()). On success, fills *info
+// when info is not null.
+StatusOr<Map> LoadMap(const std::string& path, MapFileInfo* info = nullptr,
+                      const MapLoadOptions& options = MapLoadOptions());
 
 // LoadMap's work on bytes already in memory (e.g. a map received by the server).
 // `name_for_errors` stands in for the path in error messages.

@@ -409,6 +409,44 @@ TEST_F(MapIoTest, TrailingBytesAreDataLoss) {
   ExpectLoadFails(padded, StatusCode::kDataLoss, "7 payload bytes follow the last field");
 }
 
+// A map file is untrusted: a huge file is refused from its header alone, before a byte
+// of its payload is read or any memory is set aside for it. Sparse files, so the test
+// needs neither the disk nor the time: 100 GB of zeros is "not a map", and a valid header
+// announcing 100 GB of payload is above max_map_bytes.
+TEST_F(MapIoTest, HugeFilesAreRefusedFromTheirHeader) {
+  const uint64_t huge = uint64_t{100} << 30;
+  const auto make_sparse = [&](const std::string& head) {
+    WriteBytes(path_, head);
+    ASSERT_EQ(::truncate(path_.c_str(), static_cast<off_t>(huge)), 0) << std::strerror(errno);
+  };
+  make_sparse(std::string(64, '\0'));
+  ExpectLoadFailsAt(path_, StatusCode::kInvalidArgument, "bad magic");
+
+  std::string header = SerializeMap(MakeRandomMap(4, 10, 3)).substr(0, kMapHeaderBytes);
+  PutU64(&header, 16, huge - kMapHeaderBytes);  // payload bytes
+  PutU32(&header, 28, Crc32(header.data(), 28));
+  make_sparse(header);
+  ExpectLoadFailsAt(path_, StatusCode::kResourceExhausted,
+                    "is 107374182400 bytes (102400.0 MiB), above the limit max_map_bytes = "
+                    "1073741824 bytes (1024.0 MiB)");
+}
+
+// The limit is the caller's: a real map above it is refused, at it loaded.
+TEST_F(MapIoTest, MaxFileBytesIsTheCallersLimit) {
+  const std::string bytes = SerializeMap(MakeRandomMap(4, 10, 3));
+  WriteBytes(path_, bytes);
+  MapLoadOptions tight;
+  tight.max_file_bytes = bytes.size() - 1;
+  const StatusOr<Map> refused = LoadMap(path_, nullptr, tight);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.status().code(), StatusCode::kResourceExhausted);
+  EXPECT_NE(refused.status().message().find(std::to_string(bytes.size()) + " bytes"),
+            std::string::npos)
+      << refused.status().message();
+  tight.max_file_bytes = bytes.size();
+  EXPECT_TRUE(LoadMap(path_, nullptr, tight).ok());
+}
+
 // ParseMap names the source it was given in its errors.
 TEST(ParseMapTest, ErrorsNameTheSource) {
   const StatusOr<Map> parsed = ParseMap("not a map at all", "upload from robot-3");

@@ -6,9 +6,12 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 
+#include "common/map/crc32.h"
 #include "common/map/map_io.h"
 #include "tests/server/server_test_support.h"
 
@@ -109,6 +112,41 @@ TEST_F(MapRegistryTest, LoadDirectoryReportsEachFailure) {
   ASSERT_EQ(registry_.List().size(), 2u);
   EXPECT_EQ(registry_.List()[0]->name, "second");
   EXPECT_FALSE(registry_.LoadDirectory((dir_ / "absent").string(), nullptr).ok());
+}
+
+// Files in the maps folder are untrusted: a 100 GB sparse file of zeros and a valid header
+// announcing 100 GB are each refused from their header, fast and without memory, while the
+// good map is served; entries that are not maps are named once, so "serving 0 maps" never
+// leaves an operator guessing; SaveMap's temporary files and hidden files are not.
+TEST_F(MapRegistryTest, HostileFilesAreSkippedAndOtherEntriesNamed) {
+  const off_t huge = off_t{100} << 30;
+  std::ofstream(dir_ / "zeros.scnl") << std::string(64, '\0');
+  ASSERT_EQ(::truncate((dir_ / "zeros.scnl").c_str(), huge), 0);
+  std::string header(kMapHeaderBytes, '\0');
+  std::ifstream(path_, std::ios::binary).read(header.data(), kMapHeaderBytes);
+  const uint64_t payload = static_cast<uint64_t>(huge) - kMapHeaderBytes;
+  std::memcpy(header.data() + 16, &payload, 8);
+  const uint32_t crc = Crc32(header.data(), 28);
+  std::memcpy(header.data() + 28, &crc, 4);
+  std::ofstream(dir_ / "announces.scnl", std::ios::binary) << header;
+  ASSERT_EQ(::truncate((dir_ / "announces.scnl").c_str(), huge), 0);
+  std::ofstream(dir_ / "lab.map") << "a map by another name";
+  std::ofstream(dir_ / ".hidden") << "x";
+  std::ofstream(dir_ / "next.scnl.tmp.123") << "being written";
+
+  std::vector<Status> failures;
+  std::vector<std::string> ignored;
+  const auto start = std::chrono::steady_clock::now();
+  ASSERT_TRUE(registry_.LoadDirectory(dir_.string(), &failures, &ignored).ok());
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(10));
+  ASSERT_EQ(failures.size(), 2u);
+  EXPECT_EQ(failures[0].code(), StatusCode::kResourceExhausted) << failures[0].ToString();
+  EXPECT_NE(failures[0].message().find("max_map_bytes"), std::string::npos);
+  EXPECT_EQ(failures[1].code(), StatusCode::kInvalidArgument) << failures[1].ToString();
+  EXPECT_EQ(ignored, std::vector<std::string>{"lab.map"});
+  ASSERT_EQ(registry_.List().size(), 1u);
+  EXPECT_EQ(registry_.List()[0]->name, "site");
+  EXPECT_EQ(registry_.load_failures(), 2u);
 }
 
 // The self-test query of every location of the test map ranks that location among the

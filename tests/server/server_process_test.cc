@@ -8,6 +8,7 @@
 
 #include <chrono>
 #include <filesystem>
+#include <fstream>
 #include <zmq.hpp>
 #include <zmq_addon.hpp>
 
@@ -183,6 +184,33 @@ TEST(ServerProcessTest, SighupReloadsTheMaps) {
   EXPECT_EQ(reply->map().generation(), 2u);
   EXPECT_NE(server.output().find("SIGHUP"), std::string::npos);
 
+  server.Signal(SIGTERM);
+  EXPECT_EQ(server.Wait(std::chrono::seconds(30)), 0) << server.output();
+}
+
+// A 100 GB sparse map file in the maps folder neither stops the server nor keeps it from
+// starting, at start or on SIGHUP: it is logged and skipped, the good map serves, and a
+// file that is not a map by its name is named.
+TEST(ServerProcessTest, HugeMapFileIsSkippedAtStartAndOnSighup) {
+  test::TempMapsDir dir("hostile");
+  const std::string huge = dir.MapPath("huge");
+  std::ofstream(huge) << std::string(64, '\0');
+  ASSERT_EQ(::truncate(huge.c_str(), off_t{100} << 30), 0);
+  std::ofstream(std::filesystem::path(dir.path()) / "lab.map") << "a map by another name";
+  ServerProcess server({"--maps", dir.path(), "--endpoint", "tcp://127.0.0.1:*", "--watch-maps",
+                        "false", "--summary-interval", "0", "--log-level", "info"});
+  ASSERT_TRUE(server.WaitForOutput("serving 1 map", std::chrono::seconds(30))) << server.output();
+  EXPECT_NE(server.output().find("huge.scnl"), std::string::npos) << server.output();
+  EXPECT_NE(server.output().find("lab.map"), std::string::npos) << server.output();
+  server.Signal(SIGHUP);
+  ASSERT_TRUE(server.WaitForOutput("map synthetic generation 2", std::chrono::seconds(20)))
+      << server.output();
+  ClientOptions options;
+  options.timeout_ms = 20000;
+  auto client = Client::Connect(LoggedEndpoint(server.output()), options);
+  ASSERT_TRUE(client.ok());
+  auto reply = (*client)->Localise(test::kTestMapName, test::TourFeatures(3));
+  ASSERT_TRUE(reply.ok()) << reply.status().ToString();
   server.Signal(SIGTERM);
   EXPECT_EQ(server.Wait(std::chrono::seconds(30)), 0) << server.output();
 }
