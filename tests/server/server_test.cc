@@ -5,6 +5,8 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <set>
 #include <thread>
 #include <zmq.hpp>
@@ -285,6 +287,24 @@ TEST_F(ServerTest, HugeJpegIsRefusedFromItsHeader) {
   EXPECT_EQ(reply.status().code(), StatusCode::kResourceExhausted);
   EXPECT_NE(reply.status().message().find("60000x60000"), std::string::npos)
       << reply.status().message();
+}
+
+// JPEGs too small for the extractor (1x1, 4x4, 4096x1, 1x4096) are INVALID_ARGUMENT naming
+// the minimum, not INTERNAL, and the server goes on serving.
+TEST_F(ServerTest, TinyJpegsAreInvalidArgumentNamingTheMinimum) {
+  for (const cv::Size size :
+       {cv::Size(1, 1), cv::Size(4, 4), cv::Size(4096, 1), cv::Size(1, 4096)}) {
+    SCOPED_TRACE(std::to_string(size.width) + "x" + std::to_string(size.height));
+    std::vector<uchar> bytes;
+    ASSERT_TRUE(cv::imencode(".jpg", cv::Mat(size, CV_8UC3, cv::Scalar(90, 120, 200)), bytes));
+    auto reply = client_->Localise(kTestMapName, std::string(bytes.begin(), bytes.end()));
+    ASSERT_FALSE(reply.ok());
+    EXPECT_EQ(reply.status().code(), StatusCode::kInvalidArgument) << reply.status().ToString();
+    EXPECT_NE(reply.status().message().find("at least 16 pixels"), std::string::npos)
+        << reply.status().message();
+  }
+  auto good = client_->Localise(kTestMapName, test::TourJpegs()[1]);
+  ASSERT_TRUE(good.ok()) << good.status().ToString();
 }
 
 // A DEALER socket connected to `endpoint` that has sent `count` copies of `request` back
