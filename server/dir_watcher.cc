@@ -36,7 +36,11 @@ StatusOr<std::unique_ptr<DirWatcher>> DirWatcher::Open(const std::string& dir) {
                    "': inotify_init1: " + std::strerror(errno));
   }
   // IN_ONLYDIR: a path that is not a folder is an error, not a watch on one file.
-  if (inotify_add_watch(fd, dir.c_str(), kChangedMask | kRemovedMask | IN_ONLYDIR) < 0) {
+  // IN_DELETE_SELF and IN_MOVE_SELF must be asked for: without them a folder renamed away
+  // is followed silently to its new name.
+  if (inotify_add_watch(fd, dir.c_str(),
+                        kChangedMask | kRemovedMask | IN_DELETE_SELF | IN_MOVE_SELF | IN_ONLYDIR) <
+      0) {
     const int error = errno;
     ::close(fd);
     return IoError("cannot watch maps directory '" + dir + "': " + std::strerror(error));

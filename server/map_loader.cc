@@ -5,6 +5,7 @@
 #include <sys/eventfd.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
@@ -70,21 +71,33 @@ void MapLoader::Wake() {
   (void)!::write(wake_fd_, &one, sizeof(one));
 }
 
-bool MapLoader::Reload(const std::string& map, Done done) {
+MapLoader::Queued MapLoader::Reload(const std::string& map, Done done) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (stopping_) return false;
-    tasks_.push_back({map, std::move(done)});
+    if (stopping_) return Queued::kStopping;
+    if (waiting_ >= options_.max_waiting_reloads) return Queued::kOverloaded;
+    ++waiting_;
+    const auto same = std::find_if(tasks_.begin(), tasks_.end(),
+                                   [&](const Task& task) { return task.map == map; });
+    if (same != tasks_.end()) {
+      same->done.push_back(std::move(done));
+      return Queued::kQueued;  // the loop is already due to run it
+    }
+    tasks_.push_back({map, {}});
+    tasks_.back().done.push_back(std::move(done));
   }
   Wake();
-  return true;
+  return Queued::kQueued;
 }
 
 void MapLoader::ReloadAll() {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (stopping_) return;
-    tasks_.push_back({"", nullptr});
+    const bool queued = std::any_of(tasks_.begin(), tasks_.end(),
+                                    [](const Task& task) { return task.map.empty(); });
+    if (queued) return;
+    tasks_.push_back({"", {}});
   }
   Wake();
 }
@@ -131,9 +144,11 @@ void MapLoader::Loop() {
       idle_wanted = idle_wanted_;  // taken before the events are read: they count
     }
     ReadWatchEvents();
-    // One task at a time, so Stop() waits for one load at most.
-    while (std::optional<Task> task = NextTask()) RunTask(*task);
+    TryRewatch();
     RunDueFileChanges();
+    // One task per turn: the folder's events are read between tasks, and Stop() waits
+    // for one load at most.
+    if (std::optional<Task> task = NextTask()) RunTask(*task);
 
     std::lock_guard<std::mutex> lock(mutex_);
     if (due_.empty() && tasks_.empty() && idle_seen_ < idle_wanted) {
@@ -147,13 +162,17 @@ void MapLoader::Loop() {
     cancelled.swap(tasks_);
   }
   for (Task& task : cancelled) {
-    if (task.done) task.done(nullptr);
+    for (Done& done : task.done) done(nullptr);
   }
 }
 
 int MapLoader::PollTimeoutMs() const {
-  if (due_.empty()) return -1;
-  Clock::time_point next = Clock::time_point::max();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!tasks_.empty() || stopping_) return 0;  // more work queued: do not sleep
+  }
+  Clock::time_point next = rewatch_at_;
+  if (due_.empty() && next == Clock::time_point::max()) return -1;
   for (const auto& entry : due_) next = std::min(next, entry.second);
   const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(next - Clock::now());
   // Rounded up, so the wake-up is never early.
@@ -170,18 +189,37 @@ void MapLoader::ReadWatchEvents() {
     due_[event.map] = due;
   }
   if (overflowed) {
-    // Events were lost: look at every file there is and every map served.
     spdlog::warn("maps directory {}: inotify queue overflowed; rescanning it", options_.maps_dir);
-    for (const std::string& map : MapFilesIn(options_.maps_dir)) due_[map] = due;
-    for (const auto& loaded : registry_->List()) due_[loaded->name] = due;
+    RescanFolder(due);
   }
   if (lost) {
     spdlog::error(
-        "maps directory {} was deleted or moved: no longer watching it (SIGHUP or "
-        "ReloadMap still reload)",
-        options_.maps_dir);
+        "maps directory {} was deleted, moved or replaced: watching for a folder at that path "
+        "again every {} ms (SIGHUP and ReloadMap still reload)",
+        options_.maps_dir, options_.rewatch_interval.count());
     watcher_.reset();
+    rewatch_at_ = Clock::now();
   }
+}
+
+// Events were lost, or the folder changed under the watch: look at every file there is
+// and every map served, and let what is on disk decide.
+void MapLoader::RescanFolder(Clock::time_point due) {
+  for (const std::string& map : MapFilesIn(options_.maps_dir)) due_[map] = due;
+  for (const auto& loaded : registry_->List()) due_[loaded->name] = due;
+}
+
+void MapLoader::TryRewatch() {
+  if (watcher_ || rewatch_at_ > Clock::now()) return;
+  auto watcher = DirWatcher::Open(options_.maps_dir);
+  if (!watcher.ok()) {
+    rewatch_at_ = Clock::now() + options_.rewatch_interval;
+    return;
+  }
+  watcher_ = std::move(watcher).value();
+  rewatch_at_ = Clock::time_point::max();
+  spdlog::info("maps directory {}: watching it again; rescanning", options_.maps_dir);
+  RescanFolder(Clock::now() + options_.debounce);
 }
 
 std::optional<MapLoader::Task> MapLoader::NextTask() {
@@ -189,6 +227,7 @@ std::optional<MapLoader::Task> MapLoader::NextTask() {
   if (stopping_ || tasks_.empty()) return std::nullopt;
   Task task = std::move(tasks_.front());
   tasks_.pop_front();
+  waiting_ -= task.done.size();
   return task;
 }
 
@@ -238,8 +277,12 @@ void MapLoader::SyncFolder() {
 void MapLoader::RunTask(Task& task) {
   if (task.map.empty()) return SyncFolder();
   LoadResult result = registry_->Load(PathOf(task.map));
-  LogLoad("ReloadMap", task.map, result);
-  if (task.done) task.done(&result);
+  LogLoad(task.done.size() > 1 ? "ReloadMap (" + std::to_string(task.done.size()) + " coalesced)"
+                               : std::string("ReloadMap"),
+          task.map, result);
+  for (Done& done : task.done) {
+    if (done) done(&result);
+  }
 }
 
 }  // namespace sceneloc

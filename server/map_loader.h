@@ -4,13 +4,22 @@
 //
 // Work arrives three ways, all handled in order on the loader thread:
 //  - Reload(name, done): an admin ReloadMap request; `done` gets the result (the new
-//    snapshot, or why the old one keeps serving) and sends the reply;
+//    snapshot, or why the old one keeps serving) and sends the reply. Reloads of one map
+//    that have not started yet coalesce into one load whose result answers them all; at
+//    most Options::max_waiting_reloads wait at once, more are refused (kOverloaded), so
+//    a flood of reloads costs one load, not a backlog;
 //  - ReloadAll(): SIGHUP; reloads every map file in the folder and unloads the maps
-//    whose file is gone;
+//    whose file is gone (coalesced the same way);
 //  - the watched folder (DirWatcher, when Options::watch): a map file written or renamed
 //    into place is loaded; a deleted or renamed-away one is unloaded. Events for one name
 //    are coalesced until it has been quiet for Options::debounce, and what is on disk
-//    then decides: a file there is loaded, no file unloads the map.
+//    then decides: a file there is loaded, no file unloads the map. When the folder itself
+//    is deleted, moved away or replaced, the loader says so, tries to watch maps_dir again
+//    every Options::rewatch_interval, and once it can, rescans it (the maps of the folder
+//    now at that path are served, the others unloaded).
+//
+// The loader runs one task, then the folder's events, then the next task: the watch is
+// never starved by queued work. Stop() waits for one load at most.
 //
 // Every load goes through MapRegistry::Load (LoadMap + self-test, then an atomic swap), so
 // a bad, truncated or half-written file changes nothing: the old map keeps serving, and
@@ -32,6 +41,7 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "common/util/status.h"
 #include "server/dir_watcher.h"
@@ -48,6 +58,15 @@ class MapLoader {
     bool watch = true;
     // A name's file events are acted on once none has come for this long.
     std::chrono::milliseconds debounce{100};
+    // Most Reload() callers waiting at once (coalesced ones included).
+    size_t max_waiting_reloads = 16;
+    // How often to try watching maps_dir again after the folder was lost.
+    std::chrono::milliseconds rewatch_interval{1000};
+  };
+  enum class Queued {
+    kQueued,      // `done` will run
+    kOverloaded,  // max_waiting_reloads are already waiting; `done` dropped uncalled
+    kStopping,    // Stop() has begun; `done` dropped uncalled
   };
   using LoadResult = StatusOr<std::shared_ptr<const LoadedMap>>;
   // Gets the load's result, or null when the loader stopped before starting it.
@@ -60,11 +79,11 @@ class MapLoader {
   MapLoader(const MapLoader&) = delete;
   MapLoader& operator=(const MapLoader&) = delete;
 
-  // Queues a load of <maps_dir>/<map>.scnl; `done` runs on the loader thread with the new
-  // snapshot or the error (or null if Stop() comes first). False, and `done` is dropped
-  // uncalled, once Stop() has begun.
+  // Queues a load of <maps_dir>/<map>.scnl, or joins one queued and not yet started;
+  // `done` runs on the loader thread with the new snapshot or the error (or null if
+  // Stop() comes first). See Queued for when `done` is dropped uncalled.
   // REQUIRES: `map` is a plain file stem (no '/', not starting with '.').
-  bool Reload(const std::string& map, Done done);
+  Queued Reload(const std::string& map, Done done);
 
   // Queues a reload of every map file in the folder (SIGHUP); maps served without a file
   // there any more are unloaded.
@@ -81,8 +100,8 @@ class MapLoader {
  private:
   using Clock = std::chrono::steady_clock;
   struct Task {
-    std::string map;  // empty: reload the whole folder
-    Done done;
+    std::string map;         // empty: reload the whole folder
+    std::vector<Done> done;  // every caller this load answers
   };
 
   MapLoader(const Options& options, MapRegistry* registry, int wake_fd,
@@ -93,6 +112,8 @@ class MapLoader {
   bool Stopping() const;
   int PollTimeoutMs() const;
   void ReadWatchEvents();
+  void TryRewatch();
+  void RescanFolder(Clock::time_point due);
   void RunDueFileChanges();
   void SyncFile(const std::string& map);
   void SyncFolder();
@@ -105,13 +126,15 @@ class MapLoader {
   const int wake_fd_;  // eventfd: Reload/ReloadAll/WaitIdle/Stop wake the loop
 
   // Loader thread only.
-  std::unique_ptr<DirWatcher> watcher_;           // null when not watching (or the watch was lost)
+  std::unique_ptr<DirWatcher> watcher_;  // null when not watching (or the watch was lost)
+  Clock::time_point rewatch_at_ = Clock::time_point::max();  // next attempt after a loss
   std::map<std::string, Clock::time_point> due_;  // map -> when to act on its file events
 
   mutable std::mutex mutex_;
   std::condition_variable idle_cv_;
   // Guarded by mutex_.
-  std::deque<Task> tasks_;
+  std::deque<Task> tasks_;  // at most one per map (and one folder task)
+  size_t waiting_ = 0;      // Done callbacks in tasks_
   bool stopping_ = false;
   uint64_t idle_wanted_ = 0;  // WaitIdle calls so far
   uint64_t idle_seen_ = 0;    // WaitIdle calls whose events and tasks are all handled

@@ -25,6 +25,9 @@ using Clock = std::chrono::steady_clock;
 
 constexpr char kRepliesEndpoint[] = "inproc://sceneloc-replies";
 constexpr char kControlEndpoint[] = "inproc://sceneloc-control";
+// reload_map requests waiting for the loader at once (reloads of one map coalesce into
+// one load); more get OVERLOADED.
+constexpr size_t kMaxWaitingReloads = 16;
 // Identity + empty delimiter + request is the most a valid request has.
 constexpr size_t kMaxFrames = 3;
 // How long closing the ROUTER may keep trying to deliver the last replies.
@@ -149,6 +152,7 @@ class ZmqServer final : public Server {
     loader_options.maps_dir = options_.maps_dir;
     loader_options.watch = options_.watch_maps;
     loader_options.debounce = std::chrono::milliseconds(options_.reload_debounce_ms);
+    loader_options.max_waiting_reloads = kMaxWaitingReloads;
     auto loader = MapLoader::Start(loader_options, registry_);
     if (!loader.ok()) return loader.status();
     loader_ = std::move(loader).value();
@@ -318,27 +322,32 @@ class ZmqServer final : public Server {
     if (!checked.ok()) return refuse(ToWireCode(checked.code()), checked.message());
     const std::string map = job->request.reload_map().map();
     std::shared_ptr<Job> shared = std::move(job);
-    const bool queued = loader_->Reload(map, [this, shared](const MapLoader::LoadResult* loaded) {
-      // On the loader thread: the only user of loader_push_.
-      v1::Reply reply;
-      if (loaded != nullptr) {
-        RequestHandler::FillReloadReply(shared->request.request_id(), *loaded, &reply);
-      } else {
-        reply = ErrorReply(shared->request.request_id(), v1::UNAVAILABLE,
-                           "server shut down before the reload was started");
-      }
-      RecordAndLog(&stats_, "reload_map", reply, shared->received);
-      try {
-        SendReply(loader_push_, shared->identity, shared->delimited, reply);
-      } catch (const zmq::error_t& e) {
-        spdlog::error("map loader: cannot pass a reply to the I/O thread: {}", e.what());
-      }
-    });
-    if (queued) {
+    const MapLoader::Queued queued =
+        loader_->Reload(map, [this, shared](const MapLoader::LoadResult* loaded) {
+          // On the loader thread: the only user of loader_push_.
+          v1::Reply reply;
+          if (loaded != nullptr) {
+            RequestHandler::FillReloadReply(shared->request.request_id(), *loaded, &reply);
+          } else {
+            reply = ErrorReply(shared->request.request_id(), v1::UNAVAILABLE,
+                               "server shut down before the reload was started");
+          }
+          RecordAndLog(&stats_, "reload_map", reply, shared->received);
+          try {
+            SendReply(loader_push_, shared->identity, shared->delimited, reply);
+          } catch (const zmq::error_t& e) {
+            spdlog::error("map loader: cannot pass a reply to the I/O thread: {}", e.what());
+          }
+        });
+    if (queued == MapLoader::Queued::kQueued) {
       ++outstanding_;
       return;
     }
     job = std::make_unique<Job>(std::move(*shared));
+    if (queued == MapLoader::Queued::kOverloaded) {
+      return refuse(v1::OVERLOADED, "server is overloaded: " + std::to_string(kMaxWaitingReloads) +
+                                        " reload_map requests are already waiting; retry later");
+    }
     refuse(v1::UNAVAILABLE, "server is shutting down");
   }
 

@@ -87,8 +87,8 @@ TEST_F(MapLoaderTest, ReloadRunsOnTheLoaderThreadAndReportsTheResult) {
     threads.push_back(std::this_thread::get_id());
     cv.notify_all();
   };
-  ASSERT_TRUE(loader->Reload(kTestMapName, done));
-  ASSERT_TRUE(loader->Reload("absent", done));
+  ASSERT_EQ(loader->Reload(kTestMapName, done), MapLoader::Queued::kQueued);
+  ASSERT_EQ(loader->Reload("absent", done), MapLoader::Queued::kQueued);
   std::unique_lock<std::mutex> lock(mutex);
   ASSERT_TRUE(cv.wait_for(lock, kWait, [&] { return results.size() == 2; }));
   EXPECT_TRUE(results[0].ok()) << results[0].ToString();
@@ -188,16 +188,90 @@ TEST_F(MapLoaderTest, ReloadAllFollowsTheFolder) {
 TEST_F(MapLoaderTest, StopAnswersEveryQueuedReload) {
   auto loader = StartLoader(/*watch=*/false);
   ASSERT_NE(loader, nullptr);
-  constexpr int kReloads = 20;
   std::atomic<int> loaded{0}, cancelled{0};
-  for (int i = 0; i < kReloads; ++i) {
-    ASSERT_TRUE(loader->Reload(kTestMapName, [&](const MapLoader::LoadResult* result) {
-      ++(result == nullptr ? cancelled : loaded);
-    }));
+  int queued = 0;
+  for (const std::string map : {kTestMapName, "absent", "other"}) {
+    for (int i = 0; i < 5; ++i) {
+      queued += loader->Reload(map, [&](const MapLoader::LoadResult* result) {
+        ++(result == nullptr ? cancelled : loaded);
+      }) == MapLoader::Queued::kQueued;
+    }
   }
+  EXPECT_EQ(queued, 15);
   loader->Stop();
-  EXPECT_EQ(loaded + cancelled, kReloads);
-  EXPECT_EQ(static_cast<uint64_t>(loaded), registry_.loads() - 1);
+  EXPECT_EQ(loaded + cancelled, queued);
+}
+
+// A flood of reloads (the 20,000 in half a second) coalesces into a few loads,
+// refuses what is beyond the bound with kOverloaded, answers every accepted caller
+// exactly once, and never keeps the watched folder waiting: a map dropped in during the
+// flood is served within seconds.
+TEST_F(MapLoaderTest, FloodOfReloadsCoalescesAndIsBounded) {
+  auto loader = StartLoader(/*watch=*/true);
+  ASSERT_NE(loader, nullptr);
+  std::atomic<int> answered{0};
+  std::atomic<bool> stop{false};
+  int accepted = 0, overloaded = 0;
+  std::thread flood([&] {
+    while (!stop) {
+      const MapLoader::Queued q = loader->Reload(kTestMapName, [&](const MapLoader::LoadResult* r) {
+        EXPECT_NE(r, nullptr);
+        ++answered;
+      });
+      (q == MapLoader::Queued::kQueued ? accepted : overloaded)++;
+    }
+  });
+  const uint64_t loads_before = registry_.loads();
+  const auto dropped_in = std::chrono::steady_clock::now();
+  ASSERT_TRUE(SaveMap(DifferentMap(), dir_.MapPath("annex")).ok());
+  while (registry_.Get("annex") == nullptr &&
+         std::chrono::steady_clock::now() - dropped_in < std::chrono::seconds(10)) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  const auto waited = std::chrono::steady_clock::now() - dropped_in;
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  stop = true;
+  flood.join();
+  ASSERT_TRUE(loader->WaitIdle(kWait));
+  EXPECT_NE(registry_.Get("annex"), nullptr) << "the new map waited behind the flood";
+  EXPECT_LT(waited, std::chrono::seconds(5));
+  EXPECT_GT(overloaded, 0);
+  EXPECT_EQ(answered.load(), accepted);
+  // Each load answers up to 16 waiting callers: far fewer loads than accepted reloads.
+  EXPECT_LT(registry_.loads() - loads_before, static_cast<uint64_t>(accepted));
+}
+
+// The maps folder renamed away and a new one moved into its place: the loader notices,
+// watches the new folder, serves its maps and unloads the ones it no longer holds.
+TEST_F(MapLoaderTest, FolderReplacedIsWatchedAgainAndRescanned) {
+  MapLoader::Options options;
+  options.maps_dir = dir_.path();
+  options.debounce = std::chrono::milliseconds(20);
+  options.rewatch_interval = std::chrono::milliseconds(50);
+  auto started = MapLoader::Start(options, &registry_);
+  ASSERT_TRUE(started.ok()) << started.status().ToString();
+  std::unique_ptr<MapLoader> loader = std::move(started).value();
+  const std::string old_dir = dir_.path() + ".old", new_dir = dir_.path() + ".new";
+  fs::remove_all(old_dir);
+  fs::remove_all(new_dir);
+  fs::create_directories(new_dir);
+  ASSERT_TRUE(SaveMap(DifferentMap(), (fs::path(new_dir) / "fresh.scnl").string()).ok());
+  fs::rename(dir_.path(), old_dir);
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));  // the loader sees the loss
+  fs::rename(new_dir, dir_.path());
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while ((registry_.Get("fresh") == nullptr || registry_.Get(kTestMapName) != nullptr) &&
+         std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  EXPECT_NE(registry_.Get("fresh"), nullptr) << "the new folder's map was not loaded";
+  EXPECT_EQ(registry_.Get(kTestMapName), nullptr) << "a map the folder no longer holds serves";
+  // And the new folder is watched: a file dropped into it is loaded.
+  ASSERT_TRUE(SaveMap(DifferentMap(), dir_.MapPath("later")).ok());
+  ASSERT_TRUE(loader->WaitIdle(kWait));
+  EXPECT_NE(registry_.Get("later"), nullptr);
+  loader->Stop();
+  fs::remove_all(old_dir);
 }
 
 // After Stop, Reload refuses (done is never called) and WaitIdle returns false.
@@ -206,7 +280,8 @@ TEST_F(MapLoaderTest, StopRefusesNewWork) {
   ASSERT_NE(loader, nullptr);
   loader->Stop();
   bool called = false;
-  EXPECT_FALSE(loader->Reload(kTestMapName, [&](const MapLoader::LoadResult*) { called = true; }));
+  EXPECT_EQ(loader->Reload(kTestMapName, [&](const MapLoader::LoadResult*) { called = true; }),
+            MapLoader::Queued::kStopping);
   EXPECT_FALSE(called);
   EXPECT_FALSE(loader->WaitIdle(std::chrono::milliseconds(100)));
   loader->Stop();  // idempotent

@@ -360,6 +360,49 @@ TEST(ServerOverloadTest, FullQueueRepliesOverloadedNeverDrops) {
   EXPECT_EQ(ok + overloaded, kRequests);
 }
 
+// 2,000 reload_map requests at once: every one gets exactly one reply, OK (coalesced
+// loads) or OVERLOADED, in seconds rather than a backlog of 2,000 loads; a well-behaved
+// client is served meanwhile, and the server shuts down promptly afterwards.
+TEST(ServerOverloadTest, ReloadFloodIsCoalescedAndBounded) {
+  test::TestServer server = test::StartTestServer(test::TestServerOptions());
+  ASSERT_NE(server.server, nullptr);
+  zmq::context_t context;
+  constexpr int kRequests = 2000;
+  v1::Request reload;
+  reload.mutable_reload_map()->set_map(kTestMapName);
+  const auto start = std::chrono::steady_clock::now();
+  zmq::socket_t socket = SendBurst(&context, server.endpoint, reload, kRequests);
+  auto good = MustConnect(server.endpoint);
+  ASSERT_NE(good, nullptr);
+  auto served = good->Localise(kTestMapName, test::TourFeatures(5));
+  ASSERT_TRUE(served.ok()) << served.status().ToString();
+  std::set<uint64_t> ids;
+  int ok = 0, overloaded = 0;
+  const auto deadline = start + std::chrono::seconds(60);
+  while (static_cast<int>(ids.size()) < kRequests && std::chrono::steady_clock::now() < deadline) {
+    zmq::pollitem_t item{socket.handle(), 0, ZMQ_POLLIN, 0};
+    if (zmq::poll(&item, 1, std::chrono::seconds(1)) == 0) continue;
+    std::vector<zmq::message_t> parts;
+    ASSERT_TRUE(zmq::recv_multipart(socket, std::back_inserter(parts)));
+    v1::Reply reply;
+    ASSERT_TRUE(reply.ParseFromArray(parts.back().data(), static_cast<int>(parts.back().size())));
+    EXPECT_TRUE(ids.insert(reply.request_id()).second) << "two replies to " << reply.request_id();
+    if (reply.status() == v1::OK) {
+      ++ok;
+    } else {
+      EXPECT_EQ(reply.status(), v1::OVERLOADED) << reply.error();
+      ++overloaded;
+    }
+  }
+  EXPECT_EQ(static_cast<int>(ids.size()), kRequests);
+  EXPECT_GE(ok, 1);
+  EXPECT_GE(overloaded, kRequests / 2);
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(30));
+  const auto stopping = std::chrono::steady_clock::now();
+  server.server->Shutdown();
+  EXPECT_LT(std::chrono::steady_clock::now() - stopping, std::chrono::seconds(10));
+}
+
 // Shutdown with requests queued and running: each gets an answer or UNAVAILABLE, and
 // Shutdown returns.
 TEST(ServerShutdownTest, InFlightRequestsAreAnsweredOnShutdown) {
