@@ -1,6 +1,9 @@
 // Speed of the two per-frame stages the targets name, on real data when given:
 //   extract   one 960x540 frame to features (both descriptors), one core
 //   localise  features to a ranked answer (everything after extraction), 1 and 2 threads
+//   hostile   a hostile query: N copies of the descriptor nearest the most landmarks (the
+//             mean of them all) at one point, with
+//             the default work budget (max_matches_per_landmark 16) and without it (0)
 //   confidence  what the calibrated confidence adds to a localisation: the per-location
 //             evidence scale and the posterior (the holistic distances and the verified
 //             candidates it reads are computed for the ranking anyway)
@@ -134,9 +137,40 @@ void BM_Confidence(benchmark::State& state) {
   state.SetLabel(std::to_string(fixture->map.num_images()) + " locations");
 }
 
+void BM_HostileQuery(benchmark::State& state) {
+  const Map& map = fixture->map;
+  const int copies = static_cast<int>(state.range(0));
+  FeatureSet f;
+  f.image_width = map.image_width;
+  f.image_height = map.image_height;
+  f.keypoints.assign(static_cast<size_t>(copies), {100, 100, 4, 0, 1, 0});
+  // The descriptor that resembles the most landmarks: the normalised mean of them all.
+  const Eigen::RowVectorXf local = map.local_mean.colwise().mean().normalized();
+  const Eigen::RowVectorXf context = map.context_mean.colwise().mean().normalized();
+  f.local = local.replicate(copies, 1);
+  f.context = context.replicate(copies, 1);
+  MatchOptions options;
+  options.max_matches_per_landmark = static_cast<int>(state.range(1));
+  ThreadPool pool(2);
+  size_t matches = 0;
+  for (auto _ : state) {
+    auto r = Localise(f, map, options, &pool);
+    matches = r.ok() ? r->descriptor_matches : 0;
+    benchmark::DoNotOptimize(r);
+  }
+  state.SetLabel(std::to_string(matches) + " matches kept");
+}
+
 BENCHMARK(BM_Extract)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_Localise)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_Confidence)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_HostileQuery)
+    ->Args({8192, 16})
+    ->Args({1024, 16})
+    ->Args({1024, 0})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(3);
 
 }  // namespace
 }  // namespace sceneloc

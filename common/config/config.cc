@@ -46,6 +46,7 @@ SettingTable MatchSettingTable(MatchOptions* o) {
       {"matching", "use_neighbourhood", &o->use_neighbourhood, 0, 1},
       {"matching", "include_centre_term", &o->include_centre_term, 0, 1},
       {"matching", "max_neighbours", &o->max_neighbours, 0, 256},
+      {"matching", "max_matches_per_landmark", &o->max_matches_per_landmark, 0, 100000},
       {"matching", "distinctiveness", &o->distinctiveness, 0, 1},
       {"matching", "size_exponent", &o->size_exponent, 0, 2},
       {"matching", "verify_top", &o->verify_top, 0, 1000},

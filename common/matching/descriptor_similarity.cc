@@ -26,9 +26,24 @@ float ContextSimilarity(const float* context, const Map& map, int landmark) {
   return sum / kNumHistograms;
 }
 
+// Keeps the `cap` best of one landmark's matches (appended from `first` on), in feature order.
+void CapLandmarkMatches(size_t first, size_t cap, std::vector<DescriptorMatch>* out) {
+  const auto begin = out->begin() + static_cast<std::ptrdiff_t>(first);
+  if (cap == 0 || static_cast<size_t>(out->end() - begin) <= cap) return;
+  const auto better = [](const DescriptorMatch& a, const DescriptorMatch& b) {
+    return a.similarity > b.similarity || (a.similarity == b.similarity && a.feature < b.feature);
+  };
+  std::nth_element(begin, begin + static_cast<std::ptrdiff_t>(cap) - 1, out->end(), better);
+  out->erase(begin + static_cast<std::ptrdiff_t>(cap), out->end());
+  std::sort(begin, out->end(), [](const DescriptorMatch& a, const DescriptorMatch& b) {
+    return a.feature < b.feature;
+  });
+}
+
 // Scores features against landmarks [begin, end) and appends the survivors to `out`.
 void MatchBlock(const FeatureSet& features, const Eigen::VectorXf& feature_sqnorm, const Map& map,
-                float s_min, size_t begin, size_t end, std::vector<DescriptorMatch>* out) {
+                float s_min, size_t cap, size_t begin, size_t end,
+                std::vector<DescriptorMatch>* out) {
   const auto n = static_cast<Eigen::Index>(end - begin);
   // dots(j, i) = mu_j . a_i; landmark-major so each landmark's column of features is
   // contiguous and the results come out ordered by landmark.
@@ -40,6 +55,7 @@ void MatchBlock(const FeatureSet& features, const Eigen::VectorXf& feature_sqnor
     const float var = map.local_var[landmark];
     const float limit = SquaredDistanceLimit(dmax, var, s_min);
     const float mu2 = map.local_mean_sqnorm[landmark];
+    const size_t first = out->size();
     for (Eigen::Index i = 0; i < dots.cols(); ++i) {
       const float d2 = std::max(0.0f, feature_sqnorm[i] + mu2 - 2.0f * dots(r, i));
       if (d2 > limit) continue;
@@ -49,13 +65,16 @@ void MatchBlock(const FeatureSet& features, const Eigen::VectorXf& feature_sqnor
         out->push_back({static_cast<uint32_t>(i), static_cast<uint32_t>(landmark), s});
       }
     }
+    CapLandmarkMatches(first, cap, out);
   }
 }
 
 }  // namespace
 
 std::vector<DescriptorMatch> ComputeDescriptorMatches(const FeatureSet& features, const Map& map,
-                                                      float s_min, ThreadPool* pool) {
+                                                      float s_min, ThreadPool* pool,
+                                                      int max_per_landmark) {
+  const size_t cap = static_cast<size_t>(std::max(0, max_per_landmark));
   const size_t num_landmarks = static_cast<size_t>(map.num_landmarks());
   if (features.size() == 0 || num_landmarks == 0) return {};
   const Eigen::VectorXf feature_sqnorm = features.local.rowwise().squaredNorm();
@@ -64,7 +83,7 @@ std::vector<DescriptorMatch> ComputeDescriptorMatches(const FeatureSet& features
   auto run = [&](size_t block_begin, size_t block_end) {
     for (size_t b = block_begin; b < block_end; ++b) {
       const size_t begin = b * kLandmarkBlock;
-      MatchBlock(features, feature_sqnorm, map, s_min, begin,
+      MatchBlock(features, feature_sqnorm, map, s_min, cap, begin,
                  std::min(num_landmarks, begin + kLandmarkBlock), &per_block[b]);
     }
   };

@@ -26,10 +26,15 @@ struct DescriptorMatch {
 };
 
 // Returns every (feature, landmark) pair with S_D >= s_min, ordered by landmark, then by
-// feature. `pool` may be null (runs inline). REQUIRES: map.Finalize() was called,
-// 0 < s_min <= 1. Thread-safe for concurrent calls on the same map.
+// feature; with max_per_landmark > 0, only the max_per_landmark best features of each
+// landmark (ties: the lower feature index). The cap is a work budget: a query of many
+// identical features (a hostile one) would otherwise match every landmark it resembles
+// thousands of times, and S_N walks those matches for every neighbour, quadratically.
+// `pool` may be null (runs inline). REQUIRES: map.Finalize() was called, 0 < s_min <= 1.
+// Thread-safe for concurrent calls on the same map.
 std::vector<DescriptorMatch> ComputeDescriptorMatches(const FeatureSet& features, const Map& map,
-                                                      float s_min, ThreadPool* pool);
+                                                      float s_min, ThreadPool* pool,
+                                                      int max_per_landmark = 0);
 
 // S_D of one pair, computed directly (the reference the fast path is tested against).
 float DescriptorSimilarity(const FeatureSet& features, int feature, const Map& map, int landmark);

@@ -20,6 +20,9 @@ const char* DecisionName(Decision decision) {
 Status MatchOptions::Validate() const {
   if (!(s_min > 0.0 && s_min <= 1.0)) return InvalidArgument("s_min must be in (0, 1]");
   if (max_neighbours < 0) return InvalidArgument("max_neighbours must be >= 0 (0 = all)");
+  if (max_matches_per_landmark < 0) {
+    return InvalidArgument("max_matches_per_landmark must be >= 0 (0 = all)");
+  }
   if (top_k < 1 || top_k > 1000) return InvalidArgument("top_k must be in [1, 1000]");
   if (verify_top < 0 || verify_top > 1000)
     return InvalidArgument("verify_top must be in [0, 1000]");
@@ -96,8 +99,8 @@ StatusOr<FrameScores> ScoreLocations(const FeatureSet& features, const Map& map,
   SCENELOC_RETURN_IF_ERROR(options.Validate());
   SCENELOC_RETURN_IF_ERROR(ValidateFeatureSet(features));
   Stopwatch watch;
-  const std::vector<DescriptorMatch> matches =
-      ComputeDescriptorMatches(features, map, static_cast<float>(options.s_min), pool);
+  const std::vector<DescriptorMatch> matches = ComputeDescriptorMatches(
+      features, map, static_cast<float>(options.s_min), pool, options.max_matches_per_landmark);
   stats->descriptor_matches = matches.size();
   stats->timings.descriptor_ms = watch.Milliseconds();
 

@@ -35,6 +35,11 @@ struct MatchOptions {
   bool include_centre_term = true;
   // Walk at most this many neighbours of each landmark (0 = all the map stores).
   int max_neighbours = 0;
+  // Keep at most this many query features per landmark, the best by S_D (0 = all): a
+  // work budget that bounds S_N's cost whatever a query holds (8,192 copies of one
+  // descriptor took a minute of CPU without it). An ordinary query rarely has more than a
+  // few features per landmark.
+  int max_matches_per_landmark = 16;
   // Weight each pair by p(g|f) = S_D(f,g) / sum_k S_D(f,g_k), the posterior of eq. 4:
   // a feature resembling many landmarks spreads its vote thin (what the ratio test does
   // for the baseline). false follows the paper's eq. 3.

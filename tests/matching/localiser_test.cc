@@ -54,6 +54,7 @@ TEST(LocaliserTest, LikelihoodsMatchBruteForceEquationThree) {
   const Map map = test::MakeRandomMap(15, 400, 21);
   const FeatureSet f = FeaturesOfImage(map, 7, 1);
   MatchOptions options;
+  options.max_matches_per_landmark = 0;  // the equation itself, without the work budget
   const auto all = ComputeDescriptorMatches(f, map, float(options.s_min), nullptr);
   std::vector<float> best(map.num_landmarks(), 0);
   for (const auto& m : all) {
@@ -149,6 +150,52 @@ TEST(LocaliserTest, EmptyFrameHasZeroConfidence) {
   EXPECT_EQ(r->confidence, 0.0f);
   EXPECT_EQ(r->decision, Decision::kUnknown);
   EXPECT_EQ(r->ranked[0].likelihood, 0.0f);
+}
+
+}  // namespace
+}  // namespace sceneloc
+
+namespace sceneloc {
+namespace {
+
+// A hostile query: 8,192 copies of one landmark's descriptors at one point. Without a
+// work budget every copy matches that landmark and S_N walks all of them for every
+// neighbour (the issue measured a minute of CPU); with max_matches_per_landmark the
+// matches kept, and so the work, are bounded, and the answer is still an answer.
+TEST(LocaliserTest, ManyIdenticalFeaturesAreBoundedByTheWorkBudget) {
+  const Map map = test::MakeRandomMap(10, 200, 5);
+  FeatureSet f;
+  f.image_width = map.image_width;
+  f.image_height = map.image_height;
+  constexpr int kCopies = 8192;
+  f.keypoints.assign(kCopies, {100, 100, 4, 0, 1, 0});
+  f.local = map.local_mean.row(0).replicate(kCopies, 1);
+  f.context = map.context_mean.row(0).replicate(kCopies, 1);
+  MatchOptions options;  // max_matches_per_landmark 16
+  const auto capped = Localise(f, map, options, nullptr);
+  ASSERT_TRUE(capped.ok()) << capped.status().ToString();
+  EXPECT_LE(capped->descriptor_matches, static_cast<size_t>(16 * map.num_landmarks()));
+  EXPECT_GE(capped->descriptor_matches, 16u);  // landmark 0 itself keeps its 16
+  EXPECT_FALSE(capped->ranked.empty());
+  options.max_matches_per_landmark = -1;
+  EXPECT_FALSE(Localise(f, map, options, nullptr).ok());
+}
+
+// The cap keeps each landmark's best features, still ordered by landmark, then feature.
+TEST(LocaliserTest, MatchCapKeepsTheBestInOrder) {
+  const Map map = test::MakeRandomMap(6, 60, 9);
+  const FeatureSet f = FeaturesOfImage(map, 2, 4);
+  const auto all = ComputeDescriptorMatches(f, map, 0.3f, nullptr, 0);
+  const auto capped = ComputeDescriptorMatches(f, map, 0.3f, nullptr, 1);
+  std::vector<float> best(static_cast<size_t>(map.num_landmarks()), 0.0f);
+  for (const DescriptorMatch& m : all) best[m.landmark] = std::max(best[m.landmark], m.similarity);
+  for (size_t i = 0; i < capped.size(); ++i) {
+    EXPECT_FLOAT_EQ(capped[i].similarity, best[capped[i].landmark]);
+    if (i > 0) EXPECT_LT(capped[i - 1].landmark, capped[i].landmark);
+  }
+  size_t matched_landmarks = 0;
+  for (float b : best) matched_landmarks += b > 0;
+  EXPECT_EQ(capped.size(), matched_landmarks);
 }
 
 }  // namespace
