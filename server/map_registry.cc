@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <new>
 
 #include "common/map/map_io.h"
 
@@ -106,9 +107,18 @@ StatusOr<std::shared_ptr<const LoadedMap>> MapRegistry::Load(const std::string& 
     return fail(InvalidArgument("'" + path + "' does not name a map (no file stem)"));
   }
   MapFileInfo info;
-  StatusOr<Map> map = LoadMap(path, &info, options_.load);
+  StatusOr<Map> map = Internal("not loaded");
+  Status tested;
+  // A load must never take the loader thread (and the process) down, whatever the file.
+  try {
+    map = LoadMap(path, &info, options_.load);
+    if (map.ok()) tested = SelfTest(*map);
+  } catch (const std::bad_alloc&) {
+    return fail(ResourceExhausted("map file '" + path + "': out of memory while loading it"));
+  } catch (const std::exception& e) {
+    return fail(Internal("map file '" + path + "': unexpected exception: " + e.what()));
+  }
   if (!map.ok()) return fail(map.status());
-  const Status tested = SelfTest(*map);
   if (!tested.ok()) return fail(FailedPrecondition(path + ": " + tested.message()));
 
   auto loaded = std::make_shared<LoadedMap>();

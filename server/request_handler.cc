@@ -3,6 +3,7 @@
 #include <ctime>
 #include <exception>
 #include <filesystem>
+#include <new>
 
 #include "common/util/timer.h"
 #include "proto/wire.h"
@@ -130,6 +131,8 @@ void RequestHandler::Handle(const v1::Request& request, Clock::time_point receiv
         status = InvalidArgument("request has no kind set (or one this server does not know)");
         break;
     }
+  } catch (const std::bad_alloc&) {
+    status = ResourceExhausted("out of memory while handling the request");
   } catch (const std::exception& e) {
     status = Internal(std::string("unexpected exception: ") + e.what());
   } catch (...) {

@@ -414,13 +414,24 @@ class ZmqServer final : public Server {
     push.connect(kRepliesEndpoint);
     while (std::optional<std::unique_ptr<Job>> job = queue_.Pop()) {
       Job& j = **job;
-      v1::Reply reply;
-      handler_.Handle(j.request, j.received, &reply);
-      RecordAndLog(&stats_, KindName(j.request), reply, j.received);
+      // Handle() turns every exception into an error reply; this catches what is left
+      // (the stats or the reply itself out of memory), so no worker ever ends the process.
       try {
+        v1::Reply reply;
+        handler_.Handle(j.request, j.received, &reply);
+        RecordAndLog(&stats_, KindName(j.request), reply, j.received);
         SendReply(push, j.identity, j.delimited, reply);
       } catch (const zmq::error_t& e) {
         spdlog::error("worker: cannot pass a reply to the I/O thread: {}", e.what());
+      } catch (const std::exception& e) {
+        spdlog::error("worker: request {} failed outside the handler: {}", j.request.request_id(),
+                      e.what());
+        try {
+          SendReply(push, j.identity, j.delimited,
+                    ErrorReply(j.request.request_id(), v1::INTERNAL,
+                               std::string("server error: ") + e.what()));
+        } catch (...) {
+        }
       }
     }
   }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <exception>
 
 namespace sceneloc {
 
@@ -40,7 +41,12 @@ void ThreadPool::WorkerLoop() {
       task = std::move(queue_.front());
       queue_.pop_front();
     }
-    task();
+    // A pool thread must never end the process: ParallelFor's tasks hand their exception
+    // to the caller; anything else a task throws is dropped here.
+    try {
+      task();
+    } catch (...) {
+    }
   }
 }
 
@@ -55,16 +61,27 @@ struct LoopState {
   std::function<void(size_t, size_t)> fn;
   std::atomic<size_t> next{0};
   std::atomic<size_t> done{0};
+  std::atomic<bool> failed{false};
   std::mutex mutex;
   std::condition_variable cv;
+  std::exception_ptr error;  // the first exception a chunk threw; guarded by mutex
 
-  // Runs chunks until none is left.
+  // Runs chunks until none is left. After a chunk has thrown, the rest are skipped (but
+  // still counted, so the caller's wait ends) and the caller rethrows the first exception.
   void Drain() {
     for (;;) {
       const size_t c = next.fetch_add(1);
       if (c >= num_chunks) return;
       const size_t begin = c * chunk;
-      fn(begin, std::min(n, begin + chunk));
+      if (!failed.load()) {
+        try {
+          fn(begin, std::min(n, begin + chunk));
+        } catch (...) {
+          std::lock_guard<std::mutex> lock(mutex);
+          if (!error) error = std::current_exception();
+          failed = true;
+        }
+      }
       if (done.fetch_add(1) + 1 == num_chunks) {
         std::lock_guard<std::mutex> lock(mutex);
         cv.notify_all();
@@ -98,6 +115,7 @@ void ThreadPool::ParallelFor(size_t n, size_t min_chunk,
   state->Drain();
   std::unique_lock<std::mutex> lock(state->mutex);
   state->cv.wait(lock, [&] { return state->done.load() == num_chunks; });
+  if (state->error) std::rethrow_exception(state->error);
 }
 
 }  // namespace sceneloc

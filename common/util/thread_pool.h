@@ -29,11 +29,15 @@ class ThreadPool {
   // Number of threads that run a ParallelFor: the workers plus the caller, at least 1.
   int num_threads() const { return num_threads_; }
 
+  // Runs `task` on a worker (inline without workers). An exception it throws on a worker
+  // is dropped: tasks report their own errors.
   void Schedule(std::function<void()> task);
 
   // Calls fn(begin, end) over [0, n) split into contiguous chunks of at least min_chunk
   // items; returns when every chunk is done. Runs inline when there is one thread or
-  // one chunk. fn must not throw.
+  // one chunk. If fn throws (std::bad_alloc, say), the remaining chunks are skipped and
+  // the first exception is rethrown on the caller once every started chunk has finished;
+  // no pool thread ever ends the process.
   void ParallelFor(size_t n, size_t min_chunk,
                    const std::function<void(size_t begin, size_t end)>& fn);
 

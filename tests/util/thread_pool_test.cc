@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <new>
+#include <stdexcept>
 #include <thread>
 #include <vector>
 
@@ -56,6 +58,34 @@ TEST(ThreadPoolTest, UsesWorkerThreads) {
     --inside;
   });
   EXPECT_EQ(peak.load(), 2);
+}
+
+}  // namespace
+}  // namespace sceneloc
+
+namespace sceneloc {
+namespace {
+
+// An exception in any chunk (on a worker or the caller) reaches the caller once the loop
+// has settled, the process lives, and the pool keeps working; a scheduled task that throws
+// is dropped without taking the worker down.
+TEST(ThreadPoolTest, ExceptionsReachTheCallerAndThePoolSurvives) {
+  ThreadPool pool(3);
+  for (int round = 0; round < 20; ++round) {
+    EXPECT_THROW(pool.ParallelFor(1000, 1,
+                                  [&](size_t begin, size_t end) {
+                                    for (size_t i = begin; i < end; ++i) {
+                                      if (i == 777) throw std::bad_alloc();
+                                    }
+                                  }),
+                 std::bad_alloc);
+  }
+  pool.Schedule([] { throw std::runtime_error("dropped"); });
+  std::atomic<size_t> sum{0};
+  pool.ParallelFor(1000, 1, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) sum += i;
+  });
+  EXPECT_EQ(sum.load(), 999u * 1000u / 2u);
 }
 
 }  // namespace
