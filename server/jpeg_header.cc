@@ -51,4 +51,27 @@ StatusOr<JpegDimensions> ReadJpegDimensions(std::string_view b) {
   return InvalidArgument("JPEG is truncated or corrupt: no frame header before the image data");
 }
 
+int CountJpegScans(std::string_view b) {
+  int scans = 0;
+  size_t pos = 2;  // after SOI
+  while (pos + 1 < b.size()) {
+    if (At(b, pos) != 0xFF) {  // entropy-coded data: find the next marker
+      ++pos;
+      continue;
+    }
+    const uint8_t marker = At(b, pos + 1);
+    if (marker == 0x00 || marker == 0xFF || IsStandalone(marker)) {  // stuffing, fill, RSTn
+      pos += marker == 0xFF ? 1 : 2;
+      continue;
+    }
+    if (marker == 0xD9) break;  // end of image
+    if (pos + 4 > b.size()) break;
+    const size_t length = static_cast<size_t>(Be16(b, pos + 2));
+    if (length < 2) break;
+    if (marker == 0xDA) ++scans;
+    pos += 2 + length;  // the segment; a scan's data follows it
+  }
+  return scans;
+}
+
 }  // namespace sceneloc

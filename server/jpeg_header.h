@@ -22,4 +22,11 @@ struct JpegDimensions {
 // DNL-defined height is refused too). Never reads outside `bytes`.
 StatusOr<JpegDimensions> ReadJpegDimensions(std::string_view bytes);
 
+// The number of scans (start-of-scan markers) in the whole JPEG, walking the marker
+// segments and skipping each scan's entropy-coded data; stops at the end-of-image marker
+// or the end of `bytes`. A baseline JPEG has 1 scan, a progressive one about 10; decoding
+// costs a full pass over the image per scan, so a JPEG of thousands of scans is a
+// decompression bomb. Linear in the size, never reads outside `bytes`.
+int CountJpegScans(std::string_view bytes);
+
 }  // namespace sceneloc

@@ -49,6 +49,11 @@ StatusOr<FeatureSet> ExtractJpeg(const std::string& jpeg, const LoadedMap& map,
                              std::to_string(limits.max_image_side) + " pixels per side and " +
                              std::to_string(limits.max_image_pixels) + " pixels");
   }
+  if (const int scans = CountJpegScans(jpeg); scans > limits.max_jpeg_scans) {
+    return ResourceExhausted(
+        "JPEG has " + std::to_string(scans) + " scans; the server accepts at most " +
+        std::to_string(limits.max_jpeg_scans) + " (each scan is a full decoding pass)");
+  }
   SCENELOC_ASSIGN_OR_RETURN(const cv::Mat image, DecodeImage(jpeg, limits.max_image_side));
   timings->set_decode_ms(watch.Milliseconds());
   watch.Reset();

@@ -31,6 +31,9 @@ struct RequestLimits {
   int max_keypoints = 8192;
   // Most ranked locations a request may ask for.
   int max_top_k = 100;
+  // Most scans in a JPEG (a baseline JPEG has 1, a progressive one about 10): decoding
+  // passes over the whole image once per scan.
+  int max_jpeg_scans = 64;
   // Largest map file the server reads, bytes; larger files in maps_dir are logged, counted
   // and skipped unread (a 200-image tour makes a 22 MB map).
   int64_t max_map_bytes = int64_t{1} << 30;

@@ -55,11 +55,40 @@ TEST(JpegHeaderTest, RandomBytesAreSafe) {
     const size_t n = rng() % 64;
     for (size_t i = 0; i < n; ++i)
       bytes.push_back(static_cast<char>(rng() % 4 == 0 ? 0xFF : rng()));
+    EXPECT_GE(CountJpegScans(bytes), 0);
     auto d = ReadJpegDimensions(bytes);
     if (d.ok()) {
       EXPECT_GT(d->width * d->height, 0);
     }
   }
+}
+
+// A JPEG with `extra` more copies of its last scan (segment and entropy-coded data)
+// before the end-of-image marker: how a decompression bomb is made.
+std::string WithExtraScans(const std::string& jpeg, int extra) {
+  const size_t last_sos = jpeg.rfind("\xff\xda");
+  const size_t eoi = jpeg.rfind("\xff\xd9");
+  EXPECT_NE(last_sos, std::string::npos);
+  EXPECT_EQ(eoi, jpeg.size() - 2);
+  const std::string scan = jpeg.substr(last_sos, eoi - last_sos);
+  std::string out = jpeg.substr(0, eoi);
+  for (int i = 0; i < extra; ++i) out += scan;
+  return out + "\xff\xd9";
+}
+
+// Baseline JPEGs have one scan, progressive ones several; scans appended are counted, and
+// the entropy-coded data between them (with its 0xFF00 stuffing and restart markers) is
+// not mistaken for markers.
+TEST(JpegHeaderTest, CountsScans) {
+  EXPECT_EQ(CountJpegScans(Encode(200, 120, 3)), 1);
+  EXPECT_EQ(CountJpegScans(Encode(200, 120, 1)), 1);
+  const std::string progressive = Encode(200, 120, 3, /*progressive=*/true);
+  const int scans = CountJpegScans(progressive);
+  EXPECT_GT(scans, 1);
+  EXPECT_LE(scans, 20);
+  EXPECT_EQ(CountJpegScans(WithExtraScans(progressive, 1500)), scans + 1500);
+  EXPECT_EQ(CountJpegScans(""), 0);
+  EXPECT_EQ(CountJpegScans("\xff\xd8"), 0);
 }
 
 }  // namespace

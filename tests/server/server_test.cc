@@ -307,6 +307,31 @@ TEST_F(ServerTest, TinyJpegsAreInvalidArgumentNamingTheMinimum) {
   ASSERT_TRUE(good.ok()) << good.status().ToString();
 }
 
+// A progressive JPEG with 200 extra scans (a decompression bomb: each scan is a full
+// decoding pass) is refused from its markers before decoding, naming the limit.
+TEST_F(ServerTest, JpegWithThousandsOfScansIsRefusedUndecoded) {
+  const cv::Mat frame =
+      cv::imdecode(std::vector<uchar>(test::TourJpegs()[3].begin(), test::TourJpegs()[3].end()),
+                   cv::IMREAD_COLOR);
+  std::vector<uchar> encoded;
+  ASSERT_TRUE(cv::imencode(".jpg", frame, encoded, {cv::IMWRITE_JPEG_PROGRESSIVE, 1}));
+  const std::string progressive(encoded.begin(), encoded.end());
+  auto fine = client_->Localise(kTestMapName, progressive);
+  ASSERT_TRUE(fine.ok()) << fine.status().ToString();
+  EXPECT_EQ(fine->locations(0).index(), 3);
+  const size_t last_scan = progressive.rfind("\xff\xda");
+  const size_t end = progressive.size() - 2;  // the end-of-image marker
+  std::string bomb = progressive.substr(0, end);
+  for (int i = 0; i < 200; ++i) bomb += progressive.substr(last_scan, end - last_scan);
+  bomb += "\xff\xd9";
+  auto refused = client_->Localise(kTestMapName, bomb);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.status().code(), StatusCode::kResourceExhausted);
+  EXPECT_NE(refused.status().message().find("scans; the server accepts at most 64"),
+            std::string::npos)
+      << refused.status().message();
+}
+
 // A DEALER socket connected to `endpoint` that has sent `count` copies of `request` back
 // to back, with request ids 1..count, without waiting for any reply.
 zmq::socket_t SendBurst(zmq::context_t* context, const std::string& endpoint, v1::Request request,
