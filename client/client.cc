@@ -23,6 +23,8 @@ StatusCode EngineCode(v1::StatusCode code) {
       return StatusCode::kFailedPrecondition;
     case v1::UNIMPLEMENTED:
       return StatusCode::kUnimplemented;
+    case v1::DEADLINE_EXCEEDED:
+      return StatusCode::kDeadlineExceeded;
     default:
       return StatusCode::kInternal;
   }

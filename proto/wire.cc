@@ -171,6 +171,8 @@ v1::StatusCode ToWireCode(StatusCode code) {
       return v1::FAILED_PRECONDITION;
     case StatusCode::kUnimplemented:
       return v1::UNIMPLEMENTED;
+    case StatusCode::kDeadlineExceeded:
+      return v1::DEADLINE_EXCEEDED;
     case StatusCode::kResourceExhausted:
       return v1::RESOURCE_EXHAUSTED;
     case StatusCode::kInternal:

@@ -177,12 +177,29 @@ Status RequestHandler::HandleLocalise(const v1::LocaliseRequest& request,
     timings.set_extract_ms(watch.Milliseconds());
   }
   if (!features.ok()) return features.status();
+  const Clock::time_point deadline =
+      received + std::chrono::milliseconds(options_.limits.max_request_ms);
+  if (Clock::now() > deadline) {
+    return DeadlineExceeded("request passed its " + std::to_string(options_.limits.max_request_ms) +
+                            " ms budget (max_request_ms) before matching: queue " +
+                            std::to_string(timings.queue_ms()) + " ms, decode " +
+                            std::to_string(timings.decode_ms()) + " ms, extraction " +
+                            std::to_string(timings.extract_ms()) + " ms");
+  }
 
   MatchOptions match = options_.matching;
+  match.deadline = deadline;
   if (request.top_k() > 0) match.top_k = request.top_k();
   if (request.has_min_confidence()) match.min_confidence = request.min_confidence();
-  SCENELOC_ASSIGN_OR_RETURN(const LocaliseResult result,
-                            Localise(*features, map->map, match, pool_));
+  StatusOr<LocaliseResult> localised = Localise(*features, map->map, match, pool_);
+  if (localised.status().code() == StatusCode::kDeadlineExceeded) {
+    return DeadlineExceeded(localised.status().message() + "; budget " +
+                            std::to_string(options_.limits.max_request_ms) +
+                            " ms (max_request_ms) from arrival, queue " +
+                            std::to_string(timings.queue_ms()) + " ms, extraction " +
+                            std::to_string(timings.extract_ms()) + " ms");
+  }
+  SCENELOC_ASSIGN_OR_RETURN(const LocaliseResult result, std::move(localised));
   FillResult(result, *map, match, reply);
   reply->set_num_features(static_cast<uint32_t>(features->size()));
   v1::Timings* t = reply->mutable_timings();

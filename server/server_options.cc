@@ -37,6 +37,8 @@ SettingTable Fields(ServerOptions* o) {
        "largest JPEG width x height, pixels"},
       {"limits", "max_keypoints", &l->max_keypoints, 1, 1000000, "most keypoints in a feature set"},
       {"limits", "max_top_k", &l->max_top_k, 1, 1000, "most ranked locations per request"},
+      {"limits", "max_request_ms", &l->max_request_ms, 1, 3600000,
+       "a localise request's time budget from its arrival, ms (then DEADLINE_EXCEEDED)"},
       {"limits", "max_jpeg_scans", &l->max_jpeg_scans, 1, 100000,
        "most scans in a JPEG (progressive JPEGs have ~10); more is a decompression bomb"},
       {"limits", "max_map_bytes", &l->max_map_bytes, 1024, 1e15,
@@ -59,6 +61,7 @@ Status RequestLimits::Validate() const {
   if (max_top_k < 1) return InvalidArgument("max_top_k must be >= 1");
   if (max_map_bytes < 1024) return InvalidArgument("max_map_bytes must be >= 1024");
   if (max_jpeg_scans < 1) return InvalidArgument("max_jpeg_scans must be >= 1");
+  if (max_request_ms < 1) return InvalidArgument("max_request_ms must be >= 1");
   return Status::Ok();
 }
 

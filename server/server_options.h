@@ -31,6 +31,10 @@ struct RequestLimits {
   int max_keypoints = 8192;
   // Most ranked locations a request may ask for.
   int max_top_k = 100;
+  // A localise request's time budget from its arrival (queueing included), milliseconds:
+  // past it, the request ends with DEADLINE_EXCEEDED at the next stage boundary, saying
+  // where and what each stage took.
+  int max_request_ms = 5000;
   // Most scans in a JPEG (a baseline JPEG has 1, a progressive one about 10): decoding
   // passes over the whole image once per scan.
   int max_jpeg_scans = 64;

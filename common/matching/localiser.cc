@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numeric>
 
 #include "common/matching/descriptor_similarity.h"
@@ -93,6 +94,23 @@ Status ValidateFeatureSet(const FeatureSet& f) {
   return Status::Ok();
 }
 
+namespace {
+
+// DeadlineExceeded once `deadline` has passed, naming the stage just finished and what each
+// stage so far took.
+Status CheckDeadline(const MatchOptions& options, const char* after, const StageTimings& t) {
+  if (std::chrono::steady_clock::now() <= options.deadline) return Status::Ok();
+  char spent[200];
+  std::snprintf(spent, sizeof(spent),
+                "descriptor %.1f ms, neighbourhood %.1f ms, likelihood %.1f ms, holistic %.1f ms, "
+                "verification %.1f ms",
+                t.descriptor_ms, t.neighbourhood_ms, t.likelihood_ms, t.holistic_ms, t.verify_ms);
+  return DeadlineExceeded(std::string("matching passed its deadline after the ") + after +
+                          " stage (" + spent + ")");
+}
+
+}  // namespace
+
 StatusOr<FrameScores> ScoreLocations(const FeatureSet& features, const Map& map,
                                      const MatchOptions& options, ThreadPool* pool,
                                      LocaliseResult* stats) {
@@ -103,6 +121,7 @@ StatusOr<FrameScores> ScoreLocations(const FeatureSet& features, const Map& map,
       features, map, static_cast<float>(options.s_min), pool, options.max_matches_per_landmark);
   stats->descriptor_matches = matches.size();
   stats->timings.descriptor_ms = watch.Milliseconds();
+  SCENELOC_RETURN_IF_ERROR(CheckDeadline(options, "descriptor", stats->timings));
 
   watch.Reset();
   std::vector<float> neighbourhood;
@@ -111,6 +130,7 @@ StatusOr<FrameScores> ScoreLocations(const FeatureSet& features, const Map& map,
                                               options.max_neighbours, pool);
   }
   stats->timings.neighbourhood_ms = watch.Milliseconds();
+  SCENELOC_RETURN_IF_ERROR(CheckDeadline(options, "neighbourhood", stats->timings));
 
   watch.Reset();
   // Each feature's total similarity mass, the denominator of p(g|f).
@@ -228,6 +248,7 @@ StatusOr<LocaliseResult> LocaliseInFrame(const FeatureSet& features, const Map& 
           : std::vector<float>();
   const std::vector<float> holistic_z = RobustZ(holistic);
   result.timings.holistic_ms = stage.Milliseconds();
+  SCENELOC_RETURN_IF_ERROR(CheckDeadline(options, "holistic", result.timings));
 
   stage.Reset();
   const std::vector<int> by_likelihood = RankByValue(likelihood);

@@ -14,6 +14,7 @@
 //   confidence = L1 / (L1 + L2), or the same ratio of the two best fused scores
 #pragma once
 
+#include <chrono>
 #include <string>
 #include <vector>
 
@@ -83,6 +84,10 @@ struct MatchOptions {
   double min_confidence = 0.8;
   // How many ranked locations a result carries.
   int top_k = 5;
+  // Not a setting: when the call must finish (the server sets it from the request's
+  // arrival and limits.max_request_ms). Checked between stages; past it, Localise returns
+  // DeadlineExceeded naming the stage and the time each stage took.
+  std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max();
 
   Status Validate() const;
 };

@@ -21,6 +21,7 @@ enum class StatusCode {
   kResourceExhausted,   // a size cap was exceeded
   kInternal,            // a library threw something we did not expect
   kIoError,             // the operating system refused a read or a write
+  kDeadlineExceeded,    // the work did not finish within its time budget
 };
 
 const char* StatusCodeName(StatusCode code);
@@ -56,6 +57,9 @@ inline Status ResourceExhausted(std::string m) {
 }
 inline Status Internal(std::string m) { return {StatusCode::kInternal, std::move(m)}; }
 inline Status IoError(std::string m) { return {StatusCode::kIoError, std::move(m)}; }
+inline Status DeadlineExceeded(std::string m) {
+  return {StatusCode::kDeadlineExceeded, std::move(m)};
+}
 
 // Either a value or a non-OK status.
 template <typename T>

@@ -198,5 +198,20 @@ TEST(LocaliserTest, MatchCapKeepsTheBestInOrder) {
   EXPECT_EQ(capped.size(), matched_landmarks);
 }
 
+// A deadline already past ends the call after its first stage, naming it and the times.
+TEST(LocaliserTest, PastDeadlineIsDeadlineExceeded) {
+  const Map map = test::MakeRandomMap(6, 60, 9);
+  const FeatureSet f = FeaturesOfImage(map, 2, 4);
+  MatchOptions options;
+  options.deadline = std::chrono::steady_clock::now() - std::chrono::milliseconds(1);
+  const auto r = Localise(f, map, options, nullptr);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.status().code(), StatusCode::kDeadlineExceeded);
+  EXPECT_NE(r.status().message().find("after the descriptor stage (descriptor"), std::string::npos)
+      << r.status().message();
+  options.deadline = std::chrono::steady_clock::now() + std::chrono::hours(1);
+  EXPECT_TRUE(Localise(f, map, options, nullptr).ok());
+}
+
 }  // namespace
 }  // namespace sceneloc
