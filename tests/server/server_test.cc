@@ -5,6 +5,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <set>
@@ -347,6 +348,31 @@ zmq::socket_t SendBurst(zmq::context_t* context, const std::string& endpoint, v1
   return socket;
 }
 
+// Reads replies from `socket` until `count` distinct request ids have come (or 60 s have
+// passed), expecting no request answered twice; calls `check` on each. Returns the ids.
+std::set<uint64_t> CollectReplies(zmq::socket_t* socket, int count,
+                                  const std::function<void(const v1::Reply&)>& check) {
+  std::set<uint64_t> ids;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (static_cast<int>(ids.size()) < count && std::chrono::steady_clock::now() < deadline) {
+    zmq::pollitem_t item{socket->handle(), 0, ZMQ_POLLIN, 0};
+    if (zmq::poll(&item, 1, std::chrono::seconds(1)) == 0) continue;
+    std::vector<zmq::message_t> parts;
+    if (!zmq::recv_multipart(*socket, std::back_inserter(parts))) {
+      ADD_FAILURE() << "receive failed";
+      break;
+    }
+    v1::Reply reply;
+    if (!reply.ParseFromArray(parts.back().data(), static_cast<int>(parts.back().size()))) {
+      ADD_FAILURE() << "a reply that is not a sceneloc.v1.Reply";
+      continue;
+    }
+    EXPECT_TRUE(ids.insert(reply.request_id()).second) << "two replies to " << reply.request_id();
+    check(reply);
+  }
+  return ids;
+}
+
 // A server with one worker and a queue of one, flooded: every request gets exactly one
 // reply, some OVERLOADED, none dropped.
 TEST(ServerOverloadTest, FullQueueRepliesOverloadedNeverDrops) {
@@ -360,17 +386,8 @@ TEST(ServerOverloadTest, FullQueueRepliesOverloadedNeverDrops) {
   constexpr int kRequests = 24;
   zmq::socket_t socket =
       SendBurst(&context, server.endpoint, LocaliseFeatures(test::TourFeatures(4)), kRequests);
-  std::set<uint64_t> ids;
   int ok = 0, overloaded = 0;
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
-  while (static_cast<int>(ids.size()) < kRequests && std::chrono::steady_clock::now() < deadline) {
-    zmq::pollitem_t item{socket.handle(), 0, ZMQ_POLLIN, 0};
-    if (zmq::poll(&item, 1, std::chrono::seconds(1)) == 0) continue;
-    std::vector<zmq::message_t> parts;
-    ASSERT_TRUE(zmq::recv_multipart(socket, std::back_inserter(parts)));
-    v1::Reply reply;
-    ASSERT_TRUE(reply.ParseFromArray(parts.back().data(), static_cast<int>(parts.back().size())));
-    EXPECT_TRUE(ids.insert(reply.request_id()).second) << "two replies to " << reply.request_id();
+  const std::set<uint64_t> ids = CollectReplies(&socket, kRequests, [&](const v1::Reply& reply) {
     if (reply.status() == v1::OK) {
       ++ok;
       EXPECT_EQ(reply.localise().locations(0).index(), 4);
@@ -378,7 +395,7 @@ TEST(ServerOverloadTest, FullQueueRepliesOverloadedNeverDrops) {
       EXPECT_EQ(reply.status(), v1::OVERLOADED) << reply.error();
       ++overloaded;
     }
-  }
+  });
   EXPECT_EQ(static_cast<int>(ids.size()), kRequests);
   EXPECT_GE(ok, 1);
   EXPECT_GE(overloaded, 1);
@@ -403,24 +420,15 @@ TEST(ServerOverloadTest, ReloadFloodIsCoalescedAndBounded) {
   ASSERT_NE(good, nullptr);
   auto served = good->Localise(kTestMapName, test::TourFeatures(5));
   ASSERT_TRUE(served.ok()) << served.status().ToString();
-  std::set<uint64_t> ids;
   int ok = 0, overloaded = 0;
-  const auto deadline = start + std::chrono::seconds(60);
-  while (static_cast<int>(ids.size()) < kRequests && std::chrono::steady_clock::now() < deadline) {
-    zmq::pollitem_t item{socket.handle(), 0, ZMQ_POLLIN, 0};
-    if (zmq::poll(&item, 1, std::chrono::seconds(1)) == 0) continue;
-    std::vector<zmq::message_t> parts;
-    ASSERT_TRUE(zmq::recv_multipart(socket, std::back_inserter(parts)));
-    v1::Reply reply;
-    ASSERT_TRUE(reply.ParseFromArray(parts.back().data(), static_cast<int>(parts.back().size())));
-    EXPECT_TRUE(ids.insert(reply.request_id()).second) << "two replies to " << reply.request_id();
+  const std::set<uint64_t> ids = CollectReplies(&socket, kRequests, [&](const v1::Reply& reply) {
     if (reply.status() == v1::OK) {
       ++ok;
     } else {
       EXPECT_EQ(reply.status(), v1::OVERLOADED) << reply.error();
       ++overloaded;
     }
-  }
+  });
   EXPECT_EQ(static_cast<int>(ids.size()), kRequests);
   EXPECT_GE(ok, 1);
   EXPECT_GE(overloaded, kRequests / 2);
