@@ -3,7 +3,7 @@
 //   localise  features to a ranked answer (everything after extraction), 1 and 2 threads
 //   hostile   a hostile query: N copies of the descriptor nearest the most landmarks (the
 //             mean of them all) at one point, with
-//             the default work budget (max_matches_per_landmark 16) and without it (0)
+//             the default work budget (max_matches_per_landmark 32) and without it (0)
 //   confidence  what the calibrated confidence adds to a localisation: the per-location
 //             evidence scale and the posterior (the holistic distances and the verified
 //             candidates it reads are computed for the ranking anyway)
@@ -165,8 +165,8 @@ BENCHMARK(BM_Extract)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_Localise)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_Confidence)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_HostileQuery)
-    ->Args({8192, 16})
-    ->Args({1024, 16})
+    ->Args({8192, 32})
+    ->Args({1024, 32})
     ->Args({1024, 0})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()

@@ -171,11 +171,11 @@ TEST(LocaliserTest, ManyIdenticalFeaturesAreBoundedByTheWorkBudget) {
   f.keypoints.assign(kCopies, {100, 100, 4, 0, 1, 0});
   f.local = map.local_mean.row(0).replicate(kCopies, 1);
   f.context = map.context_mean.row(0).replicate(kCopies, 1);
-  MatchOptions options;  // max_matches_per_landmark 16
+  MatchOptions options;  // max_matches_per_landmark 32
   const auto capped = Localise(f, map, options, nullptr);
   ASSERT_TRUE(capped.ok()) << capped.status().ToString();
-  EXPECT_LE(capped->descriptor_matches, static_cast<size_t>(16 * map.num_landmarks()));
-  EXPECT_GE(capped->descriptor_matches, 16u);  // landmark 0 itself keeps its 16
+  EXPECT_LE(capped->descriptor_matches, static_cast<size_t>(32 * map.num_landmarks()));
+  EXPECT_GE(capped->descriptor_matches, 32u);  // landmark 0 itself keeps its 32
   EXPECT_FALSE(capped->ranked.empty());
   options.max_matches_per_landmark = -1;
   EXPECT_FALSE(Localise(f, map, options, nullptr).ok());
