@@ -17,6 +17,7 @@
 #include "common/util/timer.h"
 #include "tools/eval/accuracy_suite.h"
 #include "tools/eval/reliability_plot.h"
+#include "tools/eval/report_json.h"
 
 namespace {
 
@@ -39,30 +40,13 @@ std::vector<Row> Rows(const sl::SetResult& r) {
           {"baseline+ransac", &r.summary.reranked}};
 }
 
-nlohmann::json ConfidenceJson(const sl::ConfidenceMetrics& c) {
-  nlohmann::json bins = nlohmann::json::array();
-  for (const sl::ReliabilityBin& b : c.bins) {
-    bins.push_back(
-        {{"count", b.count}, {"confidence", b.mean_confidence}, {"accuracy", b.accuracy}});
-  }
-  return {{"pr_auc", c.pr_auc},
-          {"recall_at_100_precision", c.recall_at_100_precision},
-          {"ece", c.ece},
-          {"ece_floor", c.ece_floor},
-          {"threshold", c.threshold},
-          {"correct_accepted", c.correct_accepted},
-          {"accepted_precision", c.accepted_precision},
-          {"reliability_bins", bins}};
-}
-
 nlohmann::json MethodJson(const sl::MethodSummary& m) {
   nlohmann::json rates;
   for (int k = 0; k <= sl::kMaxTolerance; ++k) rates[std::to_string(k)] = m.match_rate[k];
   return {{"match_rate", rates},
           {"mean_confidence", m.mean_confidence},
-          {"confidence", ConfidenceJson(m.confidence)},
-          {"match_ms",
-           {{"median", m.match_ms.median}, {"p90", m.match_ms.p90}, {"p99", m.match_ms.p99}}}};
+          {"confidence", sl::ConfidenceJson(m.confidence)},
+          {"match_ms", sl::PercentilesJson(m.match_ms)}};
 }
 
 nlohmann::json QueriesJson(const sl::SetResult& r) {

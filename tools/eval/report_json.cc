@@ -1,0 +1,26 @@
+#include "tools/eval/report_json.h"
+
+namespace sceneloc {
+
+nlohmann::json PercentilesJson(const Percentiles& p) {
+  return {{"median", p.median}, {"p90", p.p90}, {"p99", p.p99}};
+}
+
+nlohmann::json ConfidenceJson(const ConfidenceMetrics& c) {
+  nlohmann::json bins = nlohmann::json::array();
+  for (const ReliabilityBin& b : c.bins) {
+    bins.push_back(
+        {{"count", b.count}, {"confidence", b.mean_confidence}, {"accuracy", b.accuracy}});
+  }
+  return {{"pr_auc", c.pr_auc},
+          {"recall_at_100_precision", c.recall_at_100_precision},
+          {"ece", c.ece},
+          {"ece_floor", c.ece_floor},
+          {"threshold", c.threshold},
+          {"correct_accepted", c.correct_accepted},
+          {"accepted_precision", c.accepted_precision},
+          {"accepted", c.accepted},
+          {"reliability_bins", bins}};
+}
+
+}  // namespace sceneloc
