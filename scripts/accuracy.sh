@@ -17,10 +17,7 @@ shift $(( $# > 2 ? 2 : $# ))
 [[ "${1:-}" == "--" ]] && shift
 [[ -d "$data/gardens_point" || -d "$data/corridor" ]] || {
   echo "accuracy: no data set under $data (gardens_point/, corridor/)" >&2; exit 1; }
-bash "$root/scripts/setup.sh"
-/usr/bin/python3 -c "import matplotlib" 2>/dev/null || {
-  sudo=""; [[ $(id -u) -ne 0 ]] && sudo=sudo
-  $sudo apt-get install -y -qq python3-matplotlib >/dev/null; }
+bash "$root/scripts/setup.sh" --plots
 bash "$root/scripts/build.sh"
 mkdir -p "$out"
 out="$(cd "$out" && pwd)"

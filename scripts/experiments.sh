@@ -11,10 +11,7 @@ out="${1:-$root/docs/experiments}"
 data="${2:-$root/../shared/data/gardens_point}"
 [[ -d "$data/day_left" && -d "$data/day_right" ]] || {
   echo "experiments: $data/day_left and day_right are needed" >&2; exit 1; }
-bash "$root/scripts/setup.sh"
-/usr/bin/python3 -c "import matplotlib" 2>/dev/null || {
-  sudo=""; [[ $(id -u) -ne 0 ]] && sudo=sudo
-  $sudo apt-get install -y -qq python3-matplotlib >/dev/null; }
+bash "$root/scripts/setup.sh" --plots
 bash "$root/scripts/build.sh"
 bin="$root/build/tools/sceneloc-experiments"
 common=(--tour "$data/day_left" --queries "$data/day_right" --out "$out" --cache "$out/cache"

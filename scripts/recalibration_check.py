@@ -11,7 +11,7 @@ set's expected calibration error (10 bins) before and after, beside its sampling
 docs/results.md quotes one run: it helped the day family and hurt the corridor and night
 on the other side, so the shipped confidence has no such step.
 
-Usage: scripts/recalibration_check.py OUT_DIR   (Debian: python3-numpy, python3-scipy)
+Usage: scripts/recalibration_check.py OUT_DIR   (packages: scripts/setup.sh --plots)
 """
 import json
 import sys

@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Installs every Debian 12 package sceneloc needs to build, test and run.
 # Idempotent: packages already present are left alone. Run as root (or with sudo).
+# Usage: scripts/setup.sh [--plots]   (--plots adds what the evaluation scripts plot with:
+#                                      python3-matplotlib, python3-numpy, python3-scipy)
 set -euo pipefail
 
 packages=(
@@ -12,6 +14,9 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev
   python3
 )
+if [[ "${1:-}" == "--plots" ]]; then
+  packages+=(python3-matplotlib python3-numpy python3-scipy)
+fi
 
 missing=()
 for p in "${packages[@]}"; do
