@@ -17,6 +17,10 @@ if(_sanitizers)
   list(JOIN _sanitizers "," _san)
   add_compile_options(-fsanitize=${_san} -fno-omit-frame-pointer)
   add_link_options(-fsanitize=${_san})
+  if(UBSAN)
+    # Undefined behaviour stops the program (a failed test, a fuzzer crash), not a log line.
+    add_compile_options(-fno-sanitize-recover=undefined)
+  endif()
 endif()
 
 # Eigen's matrix products (the S_D hot loop) run about twice as fast with AVX2+FMA. The flag

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Installs every Debian 12 package sceneloc needs to build, test and run.
 # Idempotent: packages already present are left alone. Run as root (or with sudo).
-# Usage: scripts/setup.sh [--plots]   (--plots adds what the evaluation scripts plot with:
-#                                      python3-matplotlib, python3-numpy, python3-scipy)
+# Usage: scripts/setup.sh [--plots] [--fuzz]
+#   --plots  adds what the evaluation scripts plot with: python3-matplotlib, numpy, scipy
+#   --fuzz   adds clang and its sanitizer and libFuzzer runtimes (scripts/fuzz.sh)
 set -euo pipefail
 
 packages=(
@@ -14,9 +15,13 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev
   python3
 )
-if [[ "${1:-}" == "--plots" ]]; then
-  packages+=(python3-matplotlib python3-numpy python3-scipy)
-fi
+for arg in "$@"; do
+  case $arg in
+    --plots) packages+=(python3-matplotlib python3-numpy python3-scipy) ;;
+    --fuzz) packages+=(clang libclang-rt-14-dev) ;;
+    *) echo "setup: unknown option '$arg' (--plots, --fuzz)" >&2; exit 2 ;;
+  esac
+done
 
 missing=()
 for p in "${packages[@]}"; do
