@@ -112,6 +112,8 @@ int RunBench(const BenchArgs& args) {
   options.duration_s = args.duration_s;
   options.timeout_ms = args.timeout_ms;
   options.top_k = args.top_k;
+  options.key_file = args.key_file;
+  options.server_key_file = args.server_key_file;
   if (const Status valid = options.Validate(); !valid.ok()) {
     std::fprintf(stderr, "sceneloc bench: %s\n", valid.message().c_str());
     return 2;

@@ -30,6 +30,8 @@ struct BenchArgs {
   std::string config;
   int working_size = 0;
   std::string json_out;  // empty: no JSON file
+  std::string key_file;  // CURVE: this client's key pair and the server's public key
+  std::string server_key_file;
 };
 
 // Runs the benchmark; returns the exit status: 0 when every request was answered OK,

@@ -4,6 +4,8 @@
 #include <random>
 #include <zmq.hpp>
 
+#include "common/keys/keys.h"
+
 namespace sceneloc {
 namespace {
 
@@ -25,6 +27,8 @@ StatusCode EngineCode(v1::StatusCode code) {
       return StatusCode::kUnimplemented;
     case v1::DEADLINE_EXCEEDED:
       return StatusCode::kDeadlineExceeded;
+    case v1::PERMISSION_DENIED:
+      return StatusCode::kPermissionDenied;
     default:
       return StatusCode::kInternal;
   }
@@ -39,10 +43,24 @@ class ZmqClient final : public Client {
     next_id_ = std::random_device()() | 1u;
   }
 
+  // Reads the CURVE keys of the options, when set.
+  Status ReadKeys() {
+    if (options_.key_file.empty()) return Status::Ok();
+    SCENELOC_ASSIGN_OR_RETURN(own_key_, ReadKeyFile(options_.key_file, /*need_secret=*/true));
+    SCENELOC_ASSIGN_OR_RETURN(server_key_,
+                              ReadKeyFile(options_.server_key_file, /*need_secret=*/false));
+    return Status::Ok();
+  }
+
   Status Open() {
     try {
       socket_ = zmq::socket_t(context_, zmq::socket_type::dealer);
       socket_.set(zmq::sockopt::linger, 0);
+      if (!own_key_.public_key.empty()) {
+        socket_.set(zmq::sockopt::curve_serverkey, server_key_.public_key);
+        socket_.set(zmq::sockopt::curve_publickey, own_key_.public_key);
+        socket_.set(zmq::sockopt::curve_secretkey, own_key_.secret_key);
+      }
       socket_.connect(endpoint_);
     } catch (const zmq::error_t& e) {
       return InvalidArgument("cannot connect to '" + endpoint_ + "': " + e.what());
@@ -151,6 +169,8 @@ class ZmqClient final : public Client {
   const ClientOptions options_;
   zmq::context_t context_;
   zmq::socket_t socket_;
+  KeyPair own_key_;     // empty without CURVE
+  KeyPair server_key_;  // its public half
   uint64_t next_id_ = 1;
 };
 
@@ -159,6 +179,11 @@ class ZmqClient final : public Client {
 Status ClientOptions::Validate() const {
   if (timeout_ms < 1) return InvalidArgument("timeout_ms must be >= 1");
   if (retries < 0) return InvalidArgument("retries must be >= 0");
+  if (key_file.empty() != server_key_file.empty()) {
+    return InvalidArgument(
+        "CURVE needs both key files: this client's key pair (key_file) and the "
+        "server's public key (server_key_file)");
+  }
   return Status::Ok();
 }
 
@@ -172,6 +197,7 @@ StatusOr<std::unique_ptr<Client>> Client::Connect(const std::string& endpoint,
                                                   const ClientOptions& options) {
   SCENELOC_RETURN_IF_ERROR(options.Validate());
   auto client = std::make_unique<ZmqClient>(endpoint, options);
+  SCENELOC_RETURN_IF_ERROR(client->ReadKeys());
   SCENELOC_RETURN_IF_ERROR(client->Open());
   return std::unique_ptr<Client>(std::move(client));
 }

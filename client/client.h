@@ -38,6 +38,11 @@ struct ClientOptions {
   int timeout_ms = 5000;
   // Attempts after the first one timed out, each on a fresh socket (>= 0).
   int retries = 2;
+  // CURVE (common/keys/keys.h), for a server with auth.enabled: this client's key pair
+  // (a .key file) and the server's public key (its .pub, or its .key). Both or neither.
+  // A client whose key the server does not list gets no reply at all: its calls time out.
+  std::string key_file;
+  std::string server_key_file;
 
   Status Validate() const;
 };
@@ -47,7 +52,8 @@ class Client {
   virtual ~Client() = default;
 
   // Connects (lazily, as ZeroMQ does: no server needs to be up yet) to `endpoint`.
-  // Errors: invalid options or a malformed endpoint (InvalidArgument).
+  // Errors: invalid options or a malformed endpoint (InvalidArgument); a key file that
+  // cannot be read (its ReadKeyFile error, naming it).
   static StatusOr<std::unique_ptr<Client>> Connect(const std::string& endpoint,
                                                    const ClientOptions& options = {});
 

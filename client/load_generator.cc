@@ -107,6 +107,8 @@ StatusOr<LoadResult> RunLoad(const LoadOptions& options, const std::vector<LoadQ
   ClientOptions client_options;
   client_options.timeout_ms = options.timeout_ms;
   client_options.retries = 0;
+  client_options.key_file = options.key_file;
+  client_options.server_key_file = options.server_key_file;
   // Made here, used on the client threads: a ZeroMQ socket may move to another thread
   // across a full memory barrier, which starting the thread is.
   std::vector<std::unique_ptr<Client>> clients;

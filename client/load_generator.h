@@ -35,6 +35,9 @@ struct LoadOptions {
   int timeout_ms = 10000;
   // Ranked locations asked for (0 = the server's default).
   int top_k = 0;
+  // CURVE key files (ClientOptions::key_file, server_key_file); empty: no CURVE.
+  std::string key_file;
+  std::string server_key_file;
 
   Status Validate() const;
 };

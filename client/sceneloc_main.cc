@@ -5,6 +5,9 @@
 //   sceneloc maps --server EP          sceneloc reload --server EP --map NAME
 //   sceneloc stats --server EP
 //   sceneloc bench --server EP --map NAME --clients N --duration S [--features] [--json OUT] DIR
+//   sceneloc keygen NAME [--dir DIR] [--force]   a CURVE key pair: NAME.key and NAME.pub
+// Every command that talks to a server takes --key FILE --server-key FILE when the server
+// runs with auth.enabled (README "Authenticated clients").
 // Exit status: 0 when every request was answered OK, 1 when any got an error reply or
 // none at all, 2 for bad arguments or unreadable files.
 #include <CLI/CLI.hpp>
@@ -17,6 +20,7 @@
 #include "client/client_extractor.h"
 #include "common/config/config.h"
 #include "common/features/extractor.h"
+#include "common/keys/keys.h"
 
 namespace {
 
@@ -46,10 +50,36 @@ void PrintAnswer(const std::string& query, const v1::LocaliseReply& r) {
               static_cast<unsigned long long>(r.map().generation()), r.timings().total_ms());
 }
 
-StatusOr<std::unique_ptr<sceneloc::Client>> Connect(const std::string& server, int timeout_ms) {
+struct KeyFiles {
+  std::string own;     // --key: this client's key pair
+  std::string server;  // --server-key: the server's public key
+};
+
+StatusOr<std::unique_ptr<sceneloc::Client>> Connect(const std::string& server, int timeout_ms,
+                                                    const KeyFiles& keys) {
   sceneloc::ClientOptions options;
   options.timeout_ms = timeout_ms;
+  options.key_file = keys.own;
+  options.server_key_file = keys.server;
   return sceneloc::Client::Connect(server, options);
+}
+
+int RunKeygen(const std::string& name, const std::string& dir, bool force) {
+  auto pair = sceneloc::GenerateKeyPair(name);
+  if (!pair.ok()) {
+    std::fprintf(stderr, "sceneloc: %s\n", pair.status().message().c_str());
+    return 2;
+  }
+  if (const Status written = sceneloc::WriteKeyPair(*pair, dir, force); !written.ok()) {
+    std::fprintf(stderr, "sceneloc: %s\n", written.message().c_str());
+    return 2;
+  }
+  std::printf(
+      "wrote %s/%s.key (secret: keep it on this machine) and %s/%s.pub\n"
+      "for the server's auth.clients file:\n"
+      "  - name: %s\n    public_key: \"%s\"\n",
+      dir.c_str(), name.c_str(), dir.c_str(), name.c_str(), name.c_str(), pair->public_key.c_str());
+  return 0;
 }
 
 // Localises each input (a JPEG or a feature-set file); returns the exit status.
@@ -182,6 +212,11 @@ int main(int argc, char** argv) {
     sub->add_option("--server", server, "server endpoint")->required();
     sub->add_option("--timeout-ms", timeout_ms, "per attempt");
   }
+  KeyFiles keys;
+  for (CLI::App* sub : {localise, maps, reload, stats}) {
+    sub->add_option("--key", keys.own, "CURVE: this client's key pair (sceneloc keygen)");
+    sub->add_option("--server-key", keys.server, "CURVE: the server's public key (.pub)");
+  }
   reload->add_option("--map", map, "map name")->required();
 
   sceneloc::BenchArgs bench_args;
@@ -204,12 +239,22 @@ int main(int argc, char** argv) {
   bench->add_option("--top-k", bench_args.top_k, "ranked locations wanted (0 = server default)");
   bench->add_option("--timeout-ms", bench_args.timeout_ms, "per request; no retries")
       ->capture_default_str();
+  bench->add_option("--key", bench_args.key_file, "CURVE: this client's key pair");
+  bench->add_option("--server-key", bench_args.server_key_file, "CURVE: the server's public key");
   bench->add_option("dir", bench_args.image_dir, "folder of query images")->required();
+
+  std::string key_name, key_dir = ".";
+  bool force = false;
+  CLI::App* keygen = app.add_subcommand("keygen", "write a CURVE key pair NAME.key, NAME.pub");
+  keygen->add_option("name", key_name, "key name (a robot, the server, an operator)")->required();
+  keygen->add_option("--dir", key_dir, "folder to write them to")->capture_default_str();
+  keygen->add_flag("--force", force, "overwrite existing files");
   CLI11_PARSE(app, argc, argv);
 
   if (extract->parsed()) return RunExtract(inputs[0], out, extract_source, uint8);
   if (bench->parsed()) return sceneloc::RunBench(bench_args);
-  auto client = Connect(server, timeout_ms);
+  if (keygen->parsed()) return RunKeygen(key_name, key_dir, force);
+  auto client = Connect(server, timeout_ms, keys);
   if (!client.ok()) {
     std::fprintf(stderr, "sceneloc: %s\n", client.status().message().c_str());
     return 2;

@@ -173,6 +173,8 @@ v1::StatusCode ToWireCode(StatusCode code) {
       return v1::UNIMPLEMENTED;
     case StatusCode::kDeadlineExceeded:
       return v1::DEADLINE_EXCEEDED;
+    case StatusCode::kPermissionDenied:
+      return v1::PERMISSION_DENIED;
     case StatusCode::kResourceExhausted:
       return v1::RESOURCE_EXHAUSTED;
     case StatusCode::kInternal:

@@ -14,29 +14,8 @@ seconds="${3:-15}"
 build="$root/build"
 client="$build/client/sceneloc"
 
-server_pid=""
-stop_server() {
-  if [[ -n "$server_pid" ]] && kill -0 "$server_pid" 2>/dev/null; then
-    kill -TERM "$server_pid"; wait "$server_pid" || true
-  fi
-  server_pid=""
-}
-trap stop_server EXIT
-
-# start_server THREADS: starts sceneloc-server on a free port; sets $endpoint.
-start_server() {
-  local log="$out/server-$1.log"
-  "$build/server/sceneloc-server" --config "$root/configs/server.yaml" --maps "$out/maps" \
-    --endpoint 'tcp://127.0.0.1:*' --threads "$1" --log-level info >"$log" 2>&1 &
-  server_pid=$!
-  endpoint=""
-  local deadline=$((SECONDS + 30))
-  until [[ -n "$endpoint" ]] && "$client" maps --server "$endpoint" --timeout-ms 500 >/dev/null 2>&1; do
-    ((SECONDS < deadline)) || { cat "$log" >&2; echo "bench_server: server did not start" >&2; exit 1; }
-    endpoint="$(grep -o 'on tcp://127\.0\.0\.1:[0-9]*' "$log" | head -n1 | cut -c4- || true)"
-    sleep 0.2
-  done
-}
+# shellcheck source=scripts/bench_common.sh
+source "$root/scripts/bench_common.sh"
 
 # bench NAME CLIENTS [EXTRA...]: one sceneloc bench run over the day_right images.
 bench() {
@@ -45,17 +24,11 @@ bench() {
     --json "$out/$name.json" "$@" "$data/day_right" | sed "s/^/[$name] /"
 }
 
-rss_mb() { awk '/VmRSS/ {printf "%.1f", $2 / 1024}' "/proc/$server_pid/status"; }
-
 bash "$root/scripts/build.sh" >/dev/null
-mkdir -p "$out/maps"
-if [[ ! -f "$out/maps/gp.scnl" ]]; then
-  "$build/tools/sceneloc-train" --tour "$data/day_left" --out "$out/maps/gp.scnl" \
-    --config "$root/configs/train.yaml" | tail -n 4
-fi
+train_gp_map "$data"
 rm -f "$out/maps/gp2.scnl"
 
-start_server 2
+start_server 2 --threads 2
 echo "resident memory, 1 map: $(rss_mb) MB"
 cp "$out/maps/gp.scnl" "$out/maps/gp2.scnl"
 deadline=$((SECONDS + 30))
@@ -76,7 +49,7 @@ bench eight_clients_reload 8
 wait "$replacer"
 stop_server
 
-start_server 1
+start_server 1 --threads 1
 bench eight_clients_threads1 8
 stop_server
 

@@ -17,6 +17,7 @@
 #include "server/map_loader.h"
 #include "server/request_handler.h"
 #include "server/server_stats.h"
+#include "server/zap_handler.h"
 
 namespace sceneloc {
 namespace {
@@ -132,7 +133,18 @@ class ZmqServer final : public Server {
   ~ZmqServer() override { Shutdown(); }
 
   Status Bind() {
+    if (options_.auth.enabled) {
+      // The ZAP handler is bound before the socket, so no connection is admitted unchecked.
+      auto zap = ZapHandler::Start(context_, options_.auth);
+      if (!zap.ok()) return zap.status();
+      zap_ = std::move(zap).value();
+    }
     try {
+      if (zap_ != nullptr) {
+        frontend_.set(zmq::sockopt::curve_server, true);
+        frontend_.set(zmq::sockopt::curve_secretkey, zap_->server_key().secret_key);
+        frontend_.set(zmq::sockopt::zap_domain, "sceneloc");
+      }
       frontend_.set(zmq::sockopt::maxmsgsize, 2 * options_.limits.max_message_bytes);
       frontend_.set(zmq::sockopt::linger, kLingerMs);
       frontend_.bind(options_.endpoint);
@@ -164,7 +176,10 @@ class ZmqServer final : public Server {
 
   std::string endpoint() const override { return endpoint_; }
 
-  void ReloadAll() override { loader_->ReloadAll(); }
+  void ReloadAll() override {
+    if (zap_ != nullptr) (void)zap_->ReloadClients();  // logs its own failure
+    loader_->ReloadAll();
+  }
 
   bool WaitForLoader(std::chrono::milliseconds timeout) override {
     return loader_->WaitIdle(timeout);
@@ -282,11 +297,34 @@ class ZmqServer final : public Server {
     if (!job->request.ParseFromArray(in.payload.data(), static_cast<int>(in.payload.size()))) {
       return refuse(v1::INVALID_ARGUMENT, "request is not a valid sceneloc.v1.Request");
     }
+    if (zap_ != nullptr) {
+      const Status allowed = CheckPermission(in.payload, job->request);
+      if (!allowed.ok()) return refuse(v1::PERMISSION_DENIED, allowed.message());
+    }
     if (draining) return refuse(v1::UNAVAILABLE, "server is shutting down");
     job->identity = std::move(in.identity);
     job->delimited = in.delimited;
     job->received = received;
     Dispatch(std::move(job));
+  }
+
+  // With auth on: the request's key (its name, set by the ZAP handler) must still be in the
+  // clients file, and reload_map needs one marked admin.
+  Status CheckPermission(zmq::message_t& payload, const v1::Request& request) const {
+    std::string user;
+    try {
+      user = payload.gets("User-Id");
+    } catch (const zmq::error_t&) {
+    }
+    const ZapHandler::Role role = zap_->RoleOf(user);
+    if (role == ZapHandler::Role::kUnknown) {
+      return PermissionDenied("key '" + user + "' is no longer in " + options_.auth.clients);
+    }
+    if (request.kind_case() == v1::Request::kReloadMap && role != ZapHandler::Role::kAdmin) {
+      return PermissionDenied("reload_map needs an admin key; '" + user +
+                              "' is not marked admin in " + options_.auth.clients);
+    }
+    return Status::Ok();
   }
 
   void Dispatch(std::unique_ptr<Job> job) {
@@ -404,6 +442,10 @@ class ZmqServer final : public Server {
         s.requests, s.in_flight, statuses.empty() ? " none" : statuses, s.latency_p50_ms,
         s.latency_p90_ms, s.latency_p99_ms, s.latency_count, maps.empty() ? " none" : maps,
         registry_->loads(), registry_->load_failures(), registry_->unloads());
+    if (zap_ != nullptr) {
+      spdlog::info("auth: {} connection(s) admitted, {} refused", zap_->admitted(),
+                   zap_->refused());
+    }
   }
 
   // --- worker threads ---
@@ -449,7 +491,9 @@ class ZmqServer final : public Server {
   zmq::socket_t replies_;
   zmq::socket_t control_;
   zmq::socket_t loader_push_;  // owned by the loader thread once it runs
-  size_t outstanding_ = 0;     // queued or running jobs; I/O thread only
+  // With auth.enabled; declared after context_ so that it (and its socket) ends first.
+  std::unique_ptr<ZapHandler> zap_;
+  size_t outstanding_ = 0;  // queued or running jobs; I/O thread only
 
   std::string endpoint_;  // constant after Bind()
   std::vector<std::thread> workers_;

@@ -2,7 +2,8 @@
 //   sceneloc-server [--config configs/server.yaml] [--maps DIR] [--endpoint EP]
 //                   [--threads N] [any other settings field as --flag VALUE]
 // Loads every *.scnl in the maps directory, serves them on a ZeroMQ ROUTER socket and
-// runs until SIGTERM or SIGINT (drains in-flight requests, exits 0). SIGHUP reloads every
+// runs until SIGTERM or SIGINT (drains in-flight requests, exits 0). SIGHUP re-reads the
+// authorised clients (auth.clients, with auth.enabled) and reloads every
 // map file in the directory on the map loader thread (a failure leaves that map's old
 // version serving; a map whose file is gone is unloaded); with server.watch_maps the
 // directory is also followed as it changes.
@@ -28,13 +29,12 @@ Status ResolveOptions(const std::string& config_path,
   if (!config_path.empty()) {
     SCENELOC_RETURN_IF_ERROR(sceneloc::LoadServerOptions(config_path, options));
   }
+  std::vector<std::pair<sceneloc::ServerFlag, std::string>> given;
   for (const sceneloc::ServerFlag& flag : sceneloc::ServerFlags()) {
     const auto it = flag_values.find(flag.flag);
-    if (it != flag_values.end()) {
-      SCENELOC_RETURN_IF_ERROR(sceneloc::ApplyServerFlag(flag, it->second, options));
-    }
+    if (it != flag_values.end()) given.emplace_back(flag, it->second);
   }
-  return Status::Ok();
+  return sceneloc::ApplyServerFlags(given, options);
 }
 
 // Loads (or reloads) every map file in `dir`; false when `dir` cannot be listed.
@@ -110,7 +110,8 @@ int main(int argc, char** argv) {
     int signal = 0;
     if (sigwait(&signals, &signal) != 0) continue;
     if (signal == SIGHUP) {
-      spdlog::info("SIGHUP: reloading the maps in {}", options.maps_dir);
+      spdlog::info("SIGHUP: reloading the maps in {}{}", options.maps_dir,
+                   options.auth.enabled ? " and the authorised clients" : "");
       (*server)->ReloadAll();
       continue;
     }

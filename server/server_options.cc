@@ -5,6 +5,7 @@
 #include <algorithm>
 
 #include "common/config/config.h"
+#include "common/keys/keys.h"
 
 namespace sceneloc {
 namespace {
@@ -43,6 +44,12 @@ SettingTable Fields(ServerOptions* o) {
        "most scans in a JPEG (progressive JPEGs have ~10); more is a decompression bomb"},
       {"limits", "max_map_bytes", &l->max_map_bytes, 1024, 1e15,
        "largest map file read, bytes; larger ones are skipped unread"},
+      {"auth", "enabled", &o->auth.enabled, 0, 0,
+       "CURVE encryption, admitting only the keys in auth.clients", "auth"},
+      {"auth", "server_key", &o->auth.server_key, 0, 0, "the server's key pair file (.key)",
+       "server-key"},
+      {"auth", "clients", &o->auth.clients, 0, 0, "authorised client keys file (re-read on SIGHUP)",
+       "auth-clients"},
   };
   for (SettingField& f : MatchSettingTable(&o->matching)) {
     f.help = "matching." + f.key + " (configs/match.yaml)";
@@ -65,6 +72,15 @@ Status RequestLimits::Validate() const {
   return Status::Ok();
 }
 
+Status AuthOptions::Validate() const {
+  if (!enabled) return Status::Ok();
+  if (server_key.empty())
+    return InvalidArgument("auth.enabled needs auth.server_key (a .key file)");
+  if (clients.empty()) return InvalidArgument("auth.enabled needs auth.clients (a clients file)");
+  if (!CurveAvailable()) return Unimplemented("auth.enabled: this libzmq was built without CURVE");
+  return Status::Ok();
+}
+
 Status ServerOptions::Validate() const {
   if (maps_dir.empty()) return InvalidArgument("maps_dir must be set");
   if (endpoint.empty()) return InvalidArgument("endpoint must be set");
@@ -78,6 +94,7 @@ Status ServerOptions::Validate() const {
   if (!(summary_interval_s >= 0)) return InvalidArgument("summary_interval_s must be >= 0");
   if (!(drain_timeout_s >= 0)) return InvalidArgument("drain_timeout_s must be >= 0");
   SCENELOC_RETURN_IF_ERROR(limits.Validate());
+  SCENELOC_RETURN_IF_ERROR(auth.Validate());
   return matching.Validate();
 }
 
@@ -105,19 +122,28 @@ std::vector<ServerFlag> ServerFlags() {
   return flags;
 }
 
-Status ApplyServerFlag(const ServerFlag& flag, const std::string& value, ServerOptions* options) {
+Status ApplyServerFlags(const std::vector<std::pair<ServerFlag, std::string>>& flags,
+                        ServerOptions* options) {
   ServerOptions updated = *options;
-  const std::string where = "--" + flag.flag;
   const SettingTable fields = Fields(&updated);
-  const auto it = std::find_if(fields.begin(), fields.end(), [&](const SettingField& f) {
-    return flag.section == f.section && flag.key == f.key;
-  });
-  if (it == fields.end()) return InvalidArgument(where + " is not a server setting");
-  SCENELOC_RETURN_IF_ERROR(ApplySetting(*it, value, where));
+  std::string names;
+  for (const auto& [flag, value] : flags) {
+    const std::string where = "--" + flag.flag;
+    const auto it = std::find_if(fields.begin(), fields.end(), [&](const SettingField& f) {
+      return flag.section == f.section && flag.key == f.key;
+    });
+    if (it == fields.end()) return InvalidArgument(where + " is not a server setting");
+    SCENELOC_RETURN_IF_ERROR(ApplySetting(*it, value, where));
+    names += (names.empty() ? "" : ", ") + where;
+  }
   const Status valid = updated.Validate();
-  if (!valid.ok()) return InvalidArgument(where + ": " + valid.message());
+  if (!valid.ok()) return InvalidArgument(names + ": " + valid.message());
   *options = updated;
   return Status::Ok();
+}
+
+Status ApplyServerFlag(const ServerFlag& flag, const std::string& value, ServerOptions* options) {
+  return ApplyServerFlags({{flag, value}}, options);
 }
 
 std::string ServerOptionsToYaml(const ServerOptions& options) {

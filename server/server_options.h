@@ -2,7 +2,9 @@
 //
 //   server:    maps_dir, watch_maps, reload_debounce_ms, endpoint, threads, queue_capacity,
 //              log_level, summary_interval_s, drain_timeout_s
-//   limits:    max_message_bytes, max_image_side, max_image_pixels, max_keypoints, max_top_k
+//   limits:    max_message_bytes, max_image_side, max_image_pixels, max_keypoints, max_top_k,
+//              max_request_ms, max_jpeg_scans, max_map_bytes
+//   auth:      enabled, server_key, clients
 //   matching:  as configs/match.yaml (common/config/config.h)
 //
 // Strict like common/config: an unknown section or key, a wrong type or an out-of-range
@@ -11,6 +13,7 @@
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "common/matching/localiser.h"
@@ -45,6 +48,19 @@ struct RequestLimits {
   Status Validate() const;
 };
 
+// Who may connect (server/zap_handler.h). Off by default; see the README's "Authenticated
+// clients" for a worked example.
+struct AuthOptions {
+  // CURVE encryption and the authorised-clients check on the server socket.
+  bool enabled = false;
+  // The server's key pair (sceneloc keygen NAME writes NAME.key and NAME.pub).
+  std::string server_key;
+  // The authorised-clients file (common/keys/keys.h); re-read on SIGHUP.
+  std::string clients;
+
+  Status Validate() const;
+};
+
 struct ServerOptions {
   // Folder of map files (*.scnl); each is served under its file stem.
   std::string maps_dir = "maps";
@@ -67,6 +83,7 @@ struct ServerOptions {
   // On SIGTERM, wait at most this long for in-flight requests, seconds.
   double drain_timeout_s = 10;
   RequestLimits limits;
+  AuthOptions auth;
   MatchOptions matching;
 
   Status Validate() const;
@@ -86,8 +103,13 @@ struct ServerFlag {
 };
 // Every field's flag, in file order.
 std::vector<ServerFlag> ServerFlags();
-// Sets the field of `flag` from its command-line text, with the file's type and range
-// checks (then re-validates the whole options). Errors name the flag.
+// Sets the fields of `flags` from their command-line text, each with the file's type and
+// range checks, then validates the whole options once (so flags that depend on each other,
+// like --auth and --server-key, may come in any order). Errors name the flags; on an error
+// *options is unchanged.
+Status ApplyServerFlags(const std::vector<std::pair<ServerFlag, std::string>>& flags,
+                        ServerOptions* options);
+// ApplyServerFlags of one flag.
 Status ApplyServerFlag(const ServerFlag& flag, const std::string& value, ServerOptions* options);
 
 // The settings as YAML, in the file's layout (logged at start-up).

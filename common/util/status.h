@@ -22,6 +22,7 @@ enum class StatusCode {
   kInternal,            // a library threw something we did not expect
   kIoError,             // the operating system refused a read or a write
   kDeadlineExceeded,    // the work did not finish within its time budget
+  kPermissionDenied,    // the caller is known but may not do this (e.g. reload without admin)
 };
 
 const char* StatusCodeName(StatusCode code);
@@ -59,6 +60,9 @@ inline Status Internal(std::string m) { return {StatusCode::kInternal, std::move
 inline Status IoError(std::string m) { return {StatusCode::kIoError, std::move(m)}; }
 inline Status DeadlineExceeded(std::string m) {
   return {StatusCode::kDeadlineExceeded, std::move(m)};
+}
+inline Status PermissionDenied(std::string m) {
+  return {StatusCode::kPermissionDenied, std::move(m)};
 }
 
 // Either a value or a non-OK status.

@@ -1,0 +1,161 @@
+// CURVE and the authorised-clients file on a real server, through real sockets: who gets
+// answers, who gets nothing, who may reload, and a key revoked while connected.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "client/client.h"
+#include "common/keys/keys.h"
+#include "tests/server/server_test_support.h"
+
+namespace sceneloc {
+namespace {
+
+namespace fs = std::filesystem;
+using test::kTestMapName;
+
+// A client that gets no answer must not hold the test up for long.
+constexpr int kSilentTimeoutMs = 400;
+
+class AuthTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    maps_ = std::make_unique<test::TempMapsDir>("auth");
+    keys_ = fs::path(maps_->path()) / "keys";
+    for (const char* name : {"server", "robot", "ops", "stranger"}) {
+      auto pair = GenerateKeyPair(name);
+      ASSERT_TRUE(pair.ok());
+      ASSERT_TRUE(WriteKeyPair(*pair, keys_.string(), false).ok());
+      pairs_[name] = *pair;
+    }
+    WriteClients({{"robot", false}, {"ops", true}});
+    options_ = test::TestServerOptions();
+    options_.maps_dir = maps_->path();
+    options_.watch_maps = false;
+    options_.auth.enabled = true;
+    options_.auth.server_key = Key("server.key");
+    options_.auth.clients = Key("clients.yaml");
+  }
+
+  std::string Key(const std::string& file) const { return (keys_ / file).string(); }
+
+  void WriteClients(const std::vector<std::pair<std::string, bool>>& clients) {
+    std::ofstream out(Key("clients.yaml"));
+    out << "clients:\n";
+    for (const auto& [name, admin] : clients) {
+      out << "  - name: " << name << "\n    public_key: \"" << pairs_[name].public_key << "\"\n"
+          << (admin ? "    admin: true\n" : "");
+    }
+  }
+
+  // A client with `name`'s key (empty: no CURVE at all).
+  std::unique_ptr<Client> Connect(const std::string& endpoint, const std::string& name,
+                                  int timeout_ms = 20000) {
+    ClientOptions options;
+    options.timeout_ms = timeout_ms;
+    options.retries = 0;
+    if (!name.empty()) {
+      options.key_file = Key(name + ".key");
+      options.server_key_file = Key("server.pub");
+    }
+    auto client = Client::Connect(endpoint, options);
+    EXPECT_TRUE(client.ok()) << client.status().ToString();
+    return client.ok() ? std::move(client).value() : nullptr;
+  }
+
+  std::unique_ptr<test::TempMapsDir> maps_;
+  fs::path keys_;
+  std::map<std::string, KeyPair> pairs_;
+  ServerOptions options_;
+};
+
+TEST_F(AuthTest, OnlyListedKeysAreAnswered) {
+  test::TestServer server = test::StartTestServerOnDir(options_);
+  ASSERT_FALSE(::testing::Test::HasFatalFailure());
+
+  auto robot = Connect(server.endpoint, "robot");
+  auto maps = robot->ListMaps();
+  ASSERT_TRUE(maps.ok()) << maps.status().ToString();
+  ASSERT_EQ(maps->maps_size(), 1);
+  auto answer = robot->Localise(kTestMapName, test::TourJpegs()[3]);
+  ASSERT_TRUE(answer.ok()) << answer.status().ToString();
+  EXPECT_NEAR(answer->locations(0).index(), 3, 1);
+
+  // No CURVE, or a key the server does not list: no answer at all, not even an error.
+  for (const char* who : {"", "stranger"}) {
+    auto outsider = Connect(server.endpoint, who, kSilentTimeoutMs);
+    const Status status = outsider->ListMaps().status();
+    EXPECT_EQ(status.code(), StatusCode::kIoError) << who << ": " << status.ToString();
+    EXPECT_NE(status.message().find("no reply"), std::string::npos) << status.message();
+  }
+  // The robot is served throughout.
+  EXPECT_TRUE(robot->ListMaps().ok());
+}
+
+TEST_F(AuthTest, ReloadNeedsAnAdminKey) {
+  test::TestServer server = test::StartTestServerOnDir(options_);
+  ASSERT_FALSE(::testing::Test::HasFatalFailure());
+  const Status refused = Connect(server.endpoint, "robot")->Reload(kTestMapName).status();
+  EXPECT_EQ(refused.code(), StatusCode::kPermissionDenied) << refused.ToString();
+  EXPECT_NE(refused.message().find("admin"), std::string::npos) << refused.message();
+  auto reloaded = Connect(server.endpoint, "ops")->Reload(kTestMapName);
+  ASSERT_TRUE(reloaded.ok()) << reloaded.status().ToString();
+  EXPECT_EQ(reloaded->map().version().generation(), 2u);
+}
+
+TEST_F(AuthTest, ARevokedKeyIsRefusedOnItsOpenConnection) {
+  test::TestServer server = test::StartTestServerOnDir(options_);
+  ASSERT_FALSE(::testing::Test::HasFatalFailure());
+  auto robot = Connect(server.endpoint, "robot");
+  auto ops = Connect(server.endpoint, "ops");
+  ASSERT_TRUE(robot->ListMaps().ok());
+
+  // A clients file that does not parse leaves the old list in force.
+  { std::ofstream(Key("clients.yaml")) << "clients: [\n"; }
+  server.server->ReloadAll();
+  ASSERT_TRUE(server.server->WaitForLoader(std::chrono::seconds(20)));
+  EXPECT_TRUE(robot->ListMaps().ok());
+
+  WriteClients({{"ops", true}});
+  server.server->ReloadAll();  // what SIGHUP does
+  ASSERT_TRUE(server.server->WaitForLoader(std::chrono::seconds(20)));
+  const Status revoked = robot->ListMaps().status();
+  EXPECT_EQ(revoked.code(), StatusCode::kPermissionDenied) << revoked.ToString();
+  EXPECT_NE(revoked.message().find("'robot'"), std::string::npos) << revoked.message();
+  EXPECT_TRUE(ops->ListMaps().ok());
+  // A new connection with the revoked key gets nothing.
+  EXPECT_EQ(Connect(server.endpoint, "robot", kSilentTimeoutMs)->ListMaps().status().code(),
+            StatusCode::kIoError);
+}
+
+TEST_F(AuthTest, BadKeySettingsStopTheStartWithTheirName) {
+  ServerOptions options = options_;
+  options.auth.server_key = Key("server.pub");  // no secret key in it
+  MapRegistry registry(MapRegistry::Options{});
+  auto started = Server::Start(options, &registry);
+  ASSERT_FALSE(started.ok());
+  EXPECT_NE(started.status().message().find("server.pub"), std::string::npos)
+      << started.status().message();
+
+  options = options_;
+  options.auth.clients = Key("missing.yaml");
+  started = Server::Start(options, &registry);
+  ASSERT_FALSE(started.ok());
+  EXPECT_EQ(started.status().code(), StatusCode::kNotFound);
+
+  options = options_;
+  options.auth.server_key.clear();
+  started = Server::Start(options, &registry);
+  ASSERT_FALSE(started.ok());
+  EXPECT_NE(started.status().message().find("auth.server_key"), std::string::npos);
+
+  // A client given only one of its two key files is refused before it sends anything.
+  ClientOptions client;
+  client.key_file = Key("robot.key");
+  EXPECT_EQ(Client::Connect("tcp://127.0.0.1:1", client).status().code(),
+            StatusCode::kInvalidArgument);
+}
+
+}  // namespace
+}  // namespace sceneloc
