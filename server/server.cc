@@ -4,6 +4,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <map>
 #include <mutex>
 #include <optional>
 #include <thread>
@@ -34,11 +35,20 @@ constexpr size_t kMaxFrames = 3;
 // How long closing the ROUTER may keep trying to deliver the last replies.
 constexpr int kLingerMs = 1000;
 
+// Requests up to this size are parsed on the I/O thread (list_maps, stats, reload_map and
+// most feature sets: microseconds); larger ones, which only a localise request may be, are
+// parsed by the worker that takes them, so a burst of 8 MiB messages never holds up the
+// I/O thread.
+constexpr size_t kInlineParseBytes = 64 << 10;
+
 // A request waiting for (or held by) a worker.
 struct Job {
   zmq::message_t identity;
   bool delimited = false;  // the request had the empty delimiter frame; the reply gets one
-  v1::Request request;
+  v1::Request request;     // valid when `parsed`
+  bool parsed = true;
+  zmq::message_t raw;  // the unparsed request when !parsed (the worker parses it)
+  size_t bytes = 0;    // the request's size: counted in queued_bytes_ while queued or running
   Clock::time_point received;
 };
 
@@ -294,14 +304,18 @@ class ZmqServer final : public Server {
                         std::to_string(options_.limits.max_message_bytes) + " are accepted");
     }
     auto job = std::make_unique<Job>();
-    if (!job->request.ParseFromArray(in.payload.data(), static_cast<int>(in.payload.size()))) {
+    job->bytes = in.bytes;
+    job->parsed = in.payload.size() <= kInlineParseBytes;
+    if (job->parsed &&
+        !job->request.ParseFromArray(in.payload.data(), static_cast<int>(in.payload.size()))) {
       return refuse(v1::INVALID_ARGUMENT, "request is not a valid sceneloc.v1.Request");
     }
     if (zap_ != nullptr) {
-      const Status allowed = CheckPermission(in.payload, job->request);
+      const Status allowed = CheckPermission(in.payload, job->parsed ? &job->request : nullptr);
       if (!allowed.ok()) return refuse(v1::PERMISSION_DENIED, allowed.message());
     }
     if (draining) return refuse(v1::UNAVAILABLE, "server is shutting down");
+    if (!job->parsed) job->raw = std::move(in.payload);
     job->identity = std::move(in.identity);
     job->delimited = in.delimited;
     job->received = received;
@@ -309,8 +323,9 @@ class ZmqServer final : public Server {
   }
 
   // With auth on: the request's key (its name, set by the ZAP handler) must still be in the
-  // clients file, and reload_map needs one marked admin.
-  Status CheckPermission(zmq::message_t& payload, const v1::Request& request) const {
+  // clients file, and reload_map needs one marked admin. `request` is null when the
+  // request is too large to be parsed here (then it can only be a localise request).
+  Status CheckPermission(zmq::message_t& payload, const v1::Request* request) const {
     std::string user;
     try {
       user = payload.gets("User-Id");
@@ -320,7 +335,8 @@ class ZmqServer final : public Server {
     if (role == ZapHandler::Role::kUnknown) {
       return PermissionDenied("key '" + user + "' is no longer in " + options_.auth.clients);
     }
-    if (request.kind_case() == v1::Request::kReloadMap && role != ZapHandler::Role::kAdmin) {
+    if (request != nullptr && request->kind_case() == v1::Request::kReloadMap &&
+        role != ZapHandler::Role::kAdmin) {
       return PermissionDenied("reload_map needs an admin key; '" + user +
                               "' is not marked admin in " + options_.auth.clients);
     }
@@ -328,24 +344,57 @@ class ZmqServer final : public Server {
   }
 
   void Dispatch(std::unique_ptr<Job> job) {
-    if (job->request.kind_case() == v1::Request::kReloadMap) return DispatchReload(std::move(job));
-    if (RequestHandler::IsCheap(job->request)) {
+    if (job->parsed && job->request.kind_case() == v1::Request::kReloadMap) {
+      return DispatchReload(std::move(job));
+    }
+    if (job->parsed && RequestHandler::IsCheap(job->request)) {
       v1::Reply reply;
       handler_.Handle(job->request, job->received, &reply);
       RecordAndLog(&stats_, KindName(job->request), reply, job->received);
       SendReply(frontend_, job->identity, job->delimited, reply);
       return;
     }
-    if (queue_.TryPush(job)) {
-      ++outstanding_;
-      return;
+    const std::string connection = ConnectionKey(job->identity);
+    const size_t bytes = job->bytes;
+    std::string refusal = AdmissionRefusal(connection, bytes);
+    if (refusal.empty()) {
+      if (queue_.TryPush(job)) {
+        ++outstanding_;
+        ++in_flight_[connection];
+        queued_bytes_ += static_cast<int64_t>(bytes);
+        return;
+      }
+      refusal = std::to_string(options_.queue_capacity) +
+                " requests are already waiting (server.queue_capacity)";
     }
+    const uint64_t id = job->parsed ? job->request.request_id() : PeekRequestId(job->raw);
     const v1::Reply reply =
-        ErrorReply(job->request.request_id(), v1::OVERLOADED,
-                   "server is overloaded: " + std::to_string(options_.queue_capacity) +
-                       " requests are already waiting; retry later");
-    RecordAndLog(&stats_, KindName(job->request), reply, job->received);
+        ErrorReply(id, v1::OVERLOADED, "server is overloaded: " + refusal + "; retry later");
+    RecordAndLog(&stats_, job->parsed ? KindName(job->request) : "localise", reply, job->received);
     SendReply(frontend_, job->identity, job->delimited, reply);
+  }
+
+  static std::string ConnectionKey(const zmq::message_t& identity) {
+    return std::string(identity.data<char>(), identity.size());
+  }
+
+  // Empty when a request of `bytes` from `connection` may be queued; else which limit it
+  // would pass, with the figures.
+  std::string AdmissionRefusal(const std::string& connection, size_t bytes) const {
+    const auto it = in_flight_.find(connection);
+    const int mine = it == in_flight_.end() ? 0 : it->second;
+    if (mine >= options_.limits.max_in_flight_per_client) {
+      return "this connection already has " + std::to_string(mine) +
+             " requests queued or running, the most one connection may have "
+             "(limits.max_in_flight_per_client)";
+    }
+    const int64_t held = queued_bytes_;
+    if (held + static_cast<int64_t>(bytes) > options_.limits.max_queued_bytes) {
+      return "requests queued or running hold " + std::to_string(held) + " bytes; this one (" +
+             std::to_string(bytes) + " bytes) would pass limits.max_queued_bytes (" +
+             std::to_string(options_.limits.max_queued_bytes) + ")";
+    }
+    return {};
   }
 
   // Hands a ReloadMap request to the loader thread, which answers it through loader_push_.
@@ -379,6 +428,7 @@ class ZmqServer final : public Server {
         });
     if (queued == MapLoader::Queued::kQueued) {
       ++outstanding_;
+      ++in_flight_[ConnectionKey(shared->identity)];
       return;
     }
     job = std::make_unique<Job>(std::move(*shared));
@@ -392,13 +442,21 @@ class ZmqServer final : public Server {
   // Moves one finished reply from a worker or the loader to its client.
   void ForwardReply() {
     bool more = true;
+    bool first = true;
     while (more) {
       zmq::message_t frame;
       if (!replies_.recv(frame, zmq::recv_flags::dontwait)) return;
       more = frame.more();
+      if (first) Released(ConnectionKey(frame));  // the identity frame
+      first = false;
       frontend_.send(frame, more ? zmq::send_flags::sndmore : zmq::send_flags::none);
     }
     --outstanding_;
+  }
+
+  void Released(const std::string& connection) {
+    const auto it = in_flight_.find(connection);
+    if (it != in_flight_.end() && --it->second <= 0) in_flight_.erase(it);
   }
 
   void FinishDrain() {
@@ -460,7 +518,7 @@ class ZmqServer final : public Server {
       // (the stats or the reply itself out of memory), so no worker ever ends the process.
       try {
         v1::Reply reply;
-        handler_.Handle(j.request, j.received, &reply);
+        if (ParseOnWorker(j, &reply)) handler_.Handle(j.request, j.received, &reply);
         RecordAndLog(&stats_, KindName(j.request), reply, j.received);
         SendReply(push, j.identity, j.delimited, reply);
       } catch (const zmq::error_t& e) {
@@ -475,7 +533,33 @@ class ZmqServer final : public Server {
         } catch (...) {
         }
       }
+      queued_bytes_ -= static_cast<int64_t>(j.bytes);
     }
+  }
+
+  // Parses a request the I/O thread left unparsed (a large one). False, with `reply` filled,
+  // when it is not a valid localise request; true when it is (or was parsed already).
+  static bool ParseOnWorker(Job& j, v1::Reply* reply) {
+    if (j.parsed) return true;
+    const bool ok = j.request.ParseFromArray(j.raw.data(), static_cast<int>(j.raw.size()));
+    const uint64_t peeked_id = PeekRequestId(j.raw);
+    const size_t size = j.raw.size();
+    j.raw.rebuild();  // the parsed request holds what is needed
+    j.parsed = true;
+    if (!ok) {
+      *reply =
+          ErrorReply(peeked_id, v1::INVALID_ARGUMENT, "request is not a valid sceneloc.v1.Request");
+      return false;
+    }
+    if (j.request.kind_case() != v1::Request::kLocalise) {
+      *reply = ErrorReply(j.request.request_id(), v1::INVALID_ARGUMENT,
+                          std::string("a ") + KindName(j.request) + " request of " +
+                              std::to_string(size) +
+                              " bytes: only localise requests may be larger than " +
+                              std::to_string(kInlineParseBytes) + " bytes");
+      return false;
+    }
+    return true;
   }
 
   const ServerOptions options_;
@@ -494,6 +578,12 @@ class ZmqServer final : public Server {
   // With auth.enabled; declared after context_ so that it (and its socket) ends first.
   std::unique_ptr<ZapHandler> zap_;
   size_t outstanding_ = 0;  // queued or running jobs; I/O thread only
+  // Requests queued or running (or waiting for the loader) per connection (ROUTER
+  // identity); I/O thread only.
+  std::map<std::string, int> in_flight_;
+  // Bytes of the requests queued or running: added by the I/O thread, taken off by the
+  // worker that answered.
+  std::atomic<int64_t> queued_bytes_{0};
 
   std::string endpoint_;  // constant after Bind()
   std::vector<std::thread> workers_;

@@ -44,6 +44,10 @@ SettingTable Fields(ServerOptions* o) {
        "most scans in a JPEG (progressive JPEGs have ~10); more is a decompression bomb"},
       {"limits", "max_map_bytes", &l->max_map_bytes, 1024, 1e15,
        "largest map file read, bytes; larger ones are skipped unread"},
+      {"limits", "max_in_flight_per_client", &l->max_in_flight_per_client, 1, 1000000,
+       "requests one connection may have queued or running; more get OVERLOADED"},
+      {"limits", "max_queued_bytes", &l->max_queued_bytes, 1024, 1e15,
+       "bytes of requests queued or running, all connections; more get OVERLOADED"},
       {"auth", "enabled", &o->auth.enabled, 0, 0,
        "CURVE encryption, admitting only the keys in auth.clients", "auth"},
       {"auth", "server_key", &o->auth.server_key, 0, 0, "the server's key pair file (.key)",
@@ -69,6 +73,12 @@ Status RequestLimits::Validate() const {
   if (max_map_bytes < 1024) return InvalidArgument("max_map_bytes must be >= 1024");
   if (max_jpeg_scans < 1) return InvalidArgument("max_jpeg_scans must be >= 1");
   if (max_request_ms < 1) return InvalidArgument("max_request_ms must be >= 1");
+  if (max_in_flight_per_client < 1) return InvalidArgument("max_in_flight_per_client must be >= 1");
+  if (max_queued_bytes < max_message_bytes) {
+    return InvalidArgument("max_queued_bytes (" + std::to_string(max_queued_bytes) +
+                           ") must be >= max_message_bytes (" + std::to_string(max_message_bytes) +
+                           "), or the largest request could never be queued");
+  }
   return Status::Ok();
 }
 

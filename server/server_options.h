@@ -3,7 +3,8 @@
 //   server:    maps_dir, watch_maps, reload_debounce_ms, endpoint, threads, queue_capacity,
 //              log_level, summary_interval_s, drain_timeout_s
 //   limits:    max_message_bytes, max_image_side, max_image_pixels, max_keypoints, max_top_k,
-//              max_request_ms, max_jpeg_scans, max_map_bytes
+//              max_request_ms, max_jpeg_scans, max_map_bytes, max_in_flight_per_client,
+//              max_queued_bytes
 //   auth:      enabled, server_key, clients
 //   matching:  as configs/match.yaml (common/config/config.h)
 //
@@ -44,6 +45,12 @@ struct RequestLimits {
   // Largest map file the server reads, bytes; larger files in maps_dir are logged, counted
   // and skipped unread (a 200-image tour makes a 22 MB map).
   int64_t max_map_bytes = int64_t{1} << 30;
+  // Requests one connection may have queued or running at once; one more gets OVERLOADED
+  // (a client that floods cannot fill the queue ahead of the others by itself).
+  int max_in_flight_per_client = 8;
+  // Bytes of the requests queued or running at once, all connections together; a request
+  // that would pass it gets OVERLOADED (so 64 requests of 8 MiB cannot pin 512 MiB).
+  int64_t max_queued_bytes = int64_t{128} << 20;
 
   Status Validate() const;
 };

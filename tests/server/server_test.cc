@@ -8,6 +8,7 @@
 #include <functional>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <set>
 #include <thread>
 #include <zmq.hpp>
@@ -458,6 +459,125 @@ TEST(ServerDeadlineTest, RequestPastItsBudgetIsDeadlineExceeded) {
   auto stats = client->Stats();
   ASSERT_TRUE(stats.ok());
   EXPECT_EQ(stats->replies_by_status().at("DEADLINE_EXCEEDED"), 1u);
+}
+
+// A JPEG of the test tour's location `i` enlarged to 2400x1350 at quality 95 (~1 MB), so
+// that each request is large and takes a worker a while (decoding, resizing, extracting).
+std::string LargeJpeg(int i) {
+  cv::Mat image = cv::imdecode(
+      cv::Mat(1, static_cast<int>(test::TourJpegs()[static_cast<size_t>(i)].size()), CV_8U,
+              const_cast<char*>(test::TourJpegs()[static_cast<size_t>(i)].data())),
+      cv::IMREAD_COLOR);
+  cv::Mat large;
+  cv::resize(image, large, cv::Size(2400, 1350), 0, 0, cv::INTER_CUBIC);
+  std::vector<uint8_t> bytes;
+  cv::imencode(".jpg", large, bytes, {cv::IMWRITE_JPEG_QUALITY, 95});
+  return std::string(bytes.begin(), bytes.end());
+}
+
+v1::Request LocaliseJpeg(const std::string& jpeg) {
+  v1::Request request;
+  request.mutable_localise()->set_map(kTestMapName);
+  request.mutable_localise()->set_jpeg(jpeg);
+  return request;
+}
+
+// One connection that pipelines requests gets OVERLOADED beyond its share
+// (limits.max_in_flight_per_client), naming the limit, while another connection is served.
+TEST(ServerFairnessTest, OneConnectionCannotTakeTheWholeQueue) {
+  ServerOptions options = test::TestServerOptions();
+  options.threads = 1;
+  options.limits.max_in_flight_per_client = 2;
+  test::TestServer server = test::StartTestServer(options);
+  ASSERT_NE(server.server, nullptr);
+  zmq::context_t context;
+  constexpr int kRequests = 8;
+  zmq::socket_t flood = SendBurst(&context, server.endpoint, LocaliseJpeg(LargeJpeg(3)), kRequests);
+  auto good = MustConnect(server.endpoint);
+  auto served = good->Localise(kTestMapName, test::TourFeatures(5));
+  ASSERT_TRUE(served.ok()) << served.status().ToString();
+  EXPECT_EQ(served->locations(0).index(), 5);
+  int ok = 0, overloaded = 0;
+  const std::set<uint64_t> ids = CollectReplies(&flood, kRequests, [&](const v1::Reply& reply) {
+    if (reply.status() == v1::OK) {
+      ++ok;
+      return;
+    }
+    ++overloaded;
+    EXPECT_EQ(reply.status(), v1::OVERLOADED) << reply.error();
+    EXPECT_NE(reply.error().find("limits.max_in_flight_per_client"), std::string::npos)
+        << reply.error();
+  });
+  EXPECT_EQ(static_cast<int>(ids.size()), kRequests);
+  EXPECT_GE(ok, 2);
+  EXPECT_GE(overloaded, 1);
+}
+
+// Requests queued or running may hold limits.max_queued_bytes together; a request that
+// would pass it gets OVERLOADED with the figures, and nothing is lost.
+TEST(ServerFairnessTest, QueuedBytesAreBounded) {
+  ServerOptions options = test::TestServerOptions();
+  options.threads = 1;
+  const std::string jpeg = LargeJpeg(2);
+  options.limits.max_message_bytes = static_cast<int64_t>(jpeg.size()) + 1024;
+  options.limits.max_queued_bytes = 2 * options.limits.max_message_bytes;  // two at once
+  test::TestServer server = test::StartTestServer(options);
+  ASSERT_NE(server.server, nullptr);
+  zmq::context_t context;
+  constexpr int kRequests = 6;
+  zmq::socket_t socket = SendBurst(&context, server.endpoint, LocaliseJpeg(jpeg), kRequests);
+  int ok = 0, overloaded = 0;
+  const std::set<uint64_t> ids = CollectReplies(&socket, kRequests, [&](const v1::Reply& reply) {
+    if (reply.status() == v1::OK) {
+      ++ok;
+      EXPECT_NEAR(reply.localise().locations(0).index(), 2, 1);
+      return;
+    }
+    ++overloaded;
+    EXPECT_EQ(reply.status(), v1::OVERLOADED) << reply.error();
+    EXPECT_NE(reply.error().find("limits.max_queued_bytes"), std::string::npos) << reply.error();
+  });
+  EXPECT_EQ(static_cast<int>(ids.size()), kRequests);
+  EXPECT_GE(ok, 2);
+  EXPECT_GE(overloaded, 1);
+}
+
+// Requests over 64 KiB are parsed by a worker, not the I/O thread: a valid large localise
+// request is answered, and a large message that is not one gets INVALID_ARGUMENT saying why.
+TEST(ServerFairnessTest, LargeRequestsAreParsedByWorkers) {
+  test::TestServer server = test::StartTestServer(test::TestServerOptions());
+  ASSERT_NE(server.server, nullptr);
+  v1::Request big_list;
+  big_list.set_request_id(41);
+  big_list.mutable_list_maps();
+  // Field 15 is unknown to ListMapsRequest's parent: a parser keeps it and moves on.
+  std::string bytes = big_list.SerializeAsString();
+  const std::string padding(100 << 10, 'x');
+  bytes += std::string("\x7a", 1);  // field 15, length-delimited
+  for (uint64_t n = padding.size();; n >>= 7) {
+    if (n < 0x80) {
+      bytes += static_cast<char>(n);
+      break;
+    }
+    bytes += static_cast<char>((n & 0x7F) | 0x80);
+  }
+  bytes += padding;
+  v1::Reply reply = RawCall(server.endpoint, {"", bytes});
+  EXPECT_EQ(reply.status(), v1::INVALID_ARGUMENT) << reply.error();
+  EXPECT_EQ(reply.request_id(), 41u);
+  EXPECT_NE(reply.error().find("only localise requests may be larger"), std::string::npos)
+      << reply.error();
+
+  reply = RawCall(server.endpoint, {"", std::string(200 << 10, '\xff')});
+  EXPECT_EQ(reply.status(), v1::INVALID_ARGUMENT) << reply.error();
+
+  v1::Request large = LocaliseJpeg(LargeJpeg(7));
+  large.set_request_id(42);
+  ASSERT_GT(large.ByteSizeLong(), size_t{64} << 10);
+  reply = RawCall(server.endpoint, {"", large.SerializeAsString()});
+  ASSERT_EQ(reply.status(), v1::OK) << reply.error();
+  EXPECT_EQ(reply.request_id(), 42u);
+  EXPECT_NEAR(reply.localise().locations(0).index(), 7, 1);
 }
 
 // Shutdown with requests queued and running: each gets an answer or UNAVAILABLE, and
