@@ -41,6 +41,8 @@ StatusOr<JpegDimensions> ReadJpegDimensions(std::string_view b) {
       d.height = Be16(b, pos + 3);
       d.width = Be16(b, pos + 5);
       d.components = At(b, pos + 7);
+      // SOF2, SOF6, SOF10, SOF14: progressive (Huffman or arithmetic, plain or differential).
+      d.progressive = marker == 0xC2 || marker == 0xC6 || marker == 0xCA || marker == 0xCE;
       if (d.width == 0 || d.height == 0) {
         return InvalidArgument("JPEG frame header gives a zero width or height");
       }
@@ -49,6 +51,11 @@ StatusOr<JpegDimensions> ReadJpegDimensions(std::string_view b) {
     pos += length;
   }
   return InvalidArgument("JPEG is truncated or corrupt: no frame header before the image data");
+}
+
+int64_t EstimateDecodeBytes(const JpegDimensions& dims) {
+  const int64_t pixels = static_cast<int64_t>(dims.width) * dims.height;
+  return pixels * 3 + (dims.progressive ? pixels * 2 * dims.components : 0);
 }
 
 int CountJpegScans(std::string_view b) {

@@ -4,6 +4,7 @@
 // Thread-safe: a pure function.
 #pragma once
 
+#include <cstdint>
 #include <string_view>
 
 #include "common/util/status.h"
@@ -14,7 +15,15 @@ struct JpegDimensions {
   int width = 0;
   int height = 0;
   int components = 0;  // 1 (grey) or 3 (colour), as the frame header says
+  // A progressive (or other multi-scan) frame: the decoder keeps every coefficient of
+  // the whole image in memory until the last scan.
+  bool progressive = false;
 };
+
+// An upper bound on the memory that decoding a JPEG of `dims` holds at its peak, bytes:
+// the 3-byte-per-pixel image OpenCV returns, plus for a progressive JPEG the decoder's
+// coefficient arrays (2 bytes per pixel per component, without chroma subsampling).
+int64_t EstimateDecodeBytes(const JpegDimensions& dims);
 
 // Walks the marker segments from SOI to the first start-of-frame (SOF0..SOF15 except
 // DHT, JPG and DAC) and returns its size. Errors (InvalidArgument): not a JPEG, a

@@ -37,9 +37,11 @@ bool IsPlainName(const std::string& name) {
   return true;
 }
 
-// Checks a JPEG's header against the limits, then decodes and extracts it.
+// Checks a JPEG's header against the limits, reserves its decoding memory from `budget`
+// (waiting up to `deadline`), then decodes and extracts it.
 StatusOr<FeatureSet> ExtractJpeg(const std::string& jpeg, const LoadedMap& map,
-                                 const RequestLimits& limits, v1::Timings* timings) {
+                                 const RequestLimits& limits, MemoryBudget* budget,
+                                 Clock::time_point deadline, v1::Timings* timings) {
   Stopwatch watch;
   SCENELOC_ASSIGN_OR_RETURN(const JpegDimensions dims, ReadJpegDimensions(jpeg));
   if (dims.width > limits.max_image_side || dims.height > limits.max_image_side ||
@@ -53,6 +55,21 @@ StatusOr<FeatureSet> ExtractJpeg(const std::string& jpeg, const LoadedMap& map,
     return ResourceExhausted(
         "JPEG has " + std::to_string(scans) + " scans; the server accepts at most " +
         std::to_string(limits.max_jpeg_scans) + " (each scan is a full decoding pass)");
+  }
+  const int64_t need = EstimateDecodeBytes(dims);
+  if (need > budget->capacity()) {
+    return ResourceExhausted(
+        "decoding this " + std::to_string(dims.width) + "x" + std::to_string(dims.height) +
+        (dims.progressive ? " progressive" : "") + " JPEG needs about " + std::to_string(need) +
+        " bytes; limits.max_decode_bytes is " + std::to_string(budget->capacity()));
+  }
+  const MemoryBudget::Lease lease = budget->Acquire(need, deadline);
+  if (!lease.held()) {
+    return DeadlineExceeded("waited " + std::to_string(static_cast<int>(watch.Milliseconds())) +
+                            " ms for " + std::to_string(need) +
+                            " bytes of decoding memory (limits.max_decode_bytes " +
+                            std::to_string(budget->capacity()) +
+                            ", held by other decodes) until the request's deadline");
   }
   SCENELOC_ASSIGN_OR_RETURN(const cv::Mat image, DecodeImage(jpeg, limits.max_image_side));
   timings->set_decode_ms(watch.Milliseconds());
@@ -106,7 +123,11 @@ void FillMapInfo(const LoadedMap& map, v1::MapInfo* info) {
 
 RequestHandler::RequestHandler(const ServerOptions& options, MapRegistry* registry,
                                ThreadPool* pool, const ServerStats* stats)
-    : options_(options), registry_(registry), pool_(pool), stats_(stats) {}
+    : options_(options),
+      registry_(registry),
+      pool_(pool),
+      stats_(stats),
+      decode_budget_(std::make_unique<MemoryBudget>(options.limits.max_decode_bytes)) {}
 
 bool RequestHandler::IsCheap(const v1::Request& request) {
   return request.kind_case() == v1::Request::kStats ||
@@ -167,9 +188,12 @@ Status RequestHandler::HandleLocalise(const v1::LocaliseRequest& request,
   const std::shared_ptr<const LoadedMap> map = registry_->Get(request.map());
   if (map == nullptr) return NotFound("no map named '" + request.map() + "'");
 
+  const Clock::time_point deadline =
+      received + std::chrono::milliseconds(options_.limits.max_request_ms);
   StatusOr<FeatureSet> features = InvalidArgument("localise request carries no query");
   if (request.query_case() == v1::LocaliseRequest::kJpeg) {
-    features = ExtractJpeg(request.jpeg(), *map, options_.limits, &timings);
+    features = ExtractJpeg(request.jpeg(), *map, options_.limits, decode_budget_.get(), deadline,
+                           &timings);
   } else if (request.query_case() == v1::LocaliseRequest::kFeatures) {
     Stopwatch watch;
     features = DecodeFeatureSet(request.features(),
@@ -177,8 +201,6 @@ Status RequestHandler::HandleLocalise(const v1::LocaliseRequest& request,
     timings.set_extract_ms(watch.Milliseconds());
   }
   if (!features.ok()) return features.status();
-  const Clock::time_point deadline =
-      received + std::chrono::milliseconds(options_.limits.max_request_ms);
   if (Clock::now() > deadline) {
     return DeadlineExceeded("request passed its " + std::to_string(options_.limits.max_request_ms) +
                             " ms budget (max_request_ms) before matching: queue " +

@@ -13,10 +13,12 @@
 #pragma once
 
 #include <chrono>
+#include <memory>
 
 #include "common/util/thread_pool.h"
 #include "proto/sceneloc.pb.h"
 #include "server/map_registry.h"
+#include "server/memory_budget.h"
 #include "server/server_options.h"
 #include "server/server_stats.h"
 
@@ -57,6 +59,8 @@ class RequestHandler {
   MapRegistry* const registry_;
   ThreadPool* const pool_;
   const ServerStats* const stats_;
+  // Memory of the JPEG decodes running at once (limits.max_decode_bytes).
+  const std::unique_ptr<MemoryBudget> decode_budget_;
 };
 
 // Writes what identifies and describes a loaded map.

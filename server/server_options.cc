@@ -48,6 +48,8 @@ SettingTable Fields(ServerOptions* o) {
        "requests one connection may have queued or running; more get OVERLOADED"},
       {"limits", "max_queued_bytes", &l->max_queued_bytes, 1024, 1e15,
        "bytes of requests queued or running, all connections; more get OVERLOADED"},
+      {"limits", "max_decode_bytes", &l->max_decode_bytes, 1 << 20, 1e15,
+       "memory the JPEG decodes running at once may hold together, bytes"},
       {"auth", "enabled", &o->auth.enabled, 0, 0,
        "CURVE encryption, admitting only the keys in auth.clients", "auth"},
       {"auth", "server_key", &o->auth.server_key, 0, 0, "the server's key pair file (.key)",
@@ -74,6 +76,7 @@ Status RequestLimits::Validate() const {
   if (max_jpeg_scans < 1) return InvalidArgument("max_jpeg_scans must be >= 1");
   if (max_request_ms < 1) return InvalidArgument("max_request_ms must be >= 1");
   if (max_in_flight_per_client < 1) return InvalidArgument("max_in_flight_per_client must be >= 1");
+  if (max_decode_bytes < (1 << 20)) return InvalidArgument("max_decode_bytes must be >= 1 MiB");
   if (max_queued_bytes < max_message_bytes) {
     return InvalidArgument("max_queued_bytes (" + std::to_string(max_queued_bytes) +
                            ") must be >= max_message_bytes (" + std::to_string(max_message_bytes) +

@@ -4,7 +4,7 @@
 //              log_level, summary_interval_s, drain_timeout_s
 //   limits:    max_message_bytes, max_image_side, max_image_pixels, max_keypoints, max_top_k,
 //              max_request_ms, max_jpeg_scans, max_map_bytes, max_in_flight_per_client,
-//              max_queued_bytes
+//              max_queued_bytes, max_decode_bytes
 //   auth:      enabled, server_key, clients
 //   matching:  as configs/match.yaml (common/config/config.h)
 //
@@ -50,7 +50,13 @@ struct RequestLimits {
   int max_in_flight_per_client = 8;
   // Bytes of the requests queued or running at once, all connections together; a request
   // that would pass it gets OVERLOADED (so 64 requests of 8 MiB cannot pin 512 MiB).
-  int64_t max_queued_bytes = int64_t{128} << 20;
+  int64_t max_queued_bytes = int64_t{64} << 20;
+  // Memory that the JPEG decodes running at once may hold together, bytes (each decode's
+  // peak is estimated from its header: 3 bytes a pixel, plus 2 a pixel per component for a
+  // progressive JPEG). A decode that does not fit waits for one to finish, up to its
+  // request's deadline; a JPEG that could never fit gets RESOURCE_EXHAUSTED. The default
+  // holds one largest progressive JPEG (4096 x 4096: 150 MiB) or many ordinary ones.
+  int64_t max_decode_bytes = int64_t{192} << 20;
 
   Status Validate() const;
 };

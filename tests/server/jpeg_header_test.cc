@@ -25,6 +25,7 @@ TEST(JpegHeaderTest, ReadsTheSizeOfEncodedImages) {
     EXPECT_EQ(d->width, 123);
     EXPECT_EQ(d->height, 45);
     EXPECT_EQ(d->components, 3);
+    EXPECT_EQ(d->progressive, progressive);
   }
   auto grey = ReadJpegDimensions(Encode(64, 80, 1));
   ASSERT_TRUE(grey.ok());
@@ -89,6 +90,18 @@ TEST(JpegHeaderTest, CountsScans) {
   EXPECT_EQ(CountJpegScans(WithExtraScans(progressive, 1500)), scans + 1500);
   EXPECT_EQ(CountJpegScans(""), 0);
   EXPECT_EQ(CountJpegScans("\xff\xd8"), 0);
+}
+
+// The decoding memory estimate: 3 bytes a pixel, plus the coefficients of a progressive
+// JPEG (2 bytes a pixel per component).
+TEST(JpegHeaderTest, EstimatesDecodingMemory) {
+  EXPECT_EQ(EstimateDecodeBytes(*ReadJpegDimensions(Encode(100, 50, 3))), 100 * 50 * 3);
+  EXPECT_EQ(EstimateDecodeBytes(*ReadJpegDimensions(Encode(100, 50, 3, true))),
+            100 * 50 * 3 + 100 * 50 * 2 * 3);
+  EXPECT_EQ(EstimateDecodeBytes(*ReadJpegDimensions(Encode(100, 50, 1, true))),
+            100 * 50 * 3 + 100 * 50 * 2);
+  JpegDimensions largest{65535, 65535, 3, true};
+  EXPECT_EQ(EstimateDecodeBytes(largest), int64_t{65535} * 65535 * 9);  // no overflow
 }
 
 }  // namespace

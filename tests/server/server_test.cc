@@ -580,6 +580,37 @@ TEST(ServerFairnessTest, LargeRequestsAreParsedByWorkers) {
   EXPECT_NEAR(reply.localise().locations(0).index(), 7, 1);
 }
 
+// JPEG decodes share limits.max_decode_bytes: a JPEG that could never fit is refused from
+// its header with the figures; JPEGs that fit one at a time are all answered (each waits
+// for the one before it).
+TEST(ServerDecodeBudgetTest, DecodesShareTheMemoryBudget) {
+  ServerOptions options = test::TestServerOptions();
+  const std::string jpeg = LargeJpeg(4);       // 2400 x 1350 baseline: 9.7 MB to decode
+  options.limits.max_decode_bytes = 12 << 20;  // room for one at a time
+  test::TestServer server = test::StartTestServer(options);
+  ASSERT_NE(server.server, nullptr);
+  zmq::context_t context;
+  constexpr int kRequests = 4;
+  zmq::socket_t socket = SendBurst(&context, server.endpoint, LocaliseJpeg(jpeg), kRequests);
+  int ok = 0;
+  CollectReplies(&socket, kRequests, [&](const v1::Reply& reply) {
+    EXPECT_EQ(reply.status(), v1::OK) << reply.error();
+    ok += reply.status() == v1::OK;
+  });
+  EXPECT_EQ(ok, kRequests);
+
+  cv::Mat huge(3000, 3000, CV_8UC3, cv::Scalar(90, 120, 200));
+  std::vector<uint8_t> bytes;
+  cv::imencode(".jpg", huge, bytes, {cv::IMWRITE_JPEG_PROGRESSIVE, 1});
+  const v1::Reply refused =
+      RawCall(server.endpoint,
+              {"", LocaliseJpeg(std::string(bytes.begin(), bytes.end())).SerializeAsString()});
+  EXPECT_EQ(refused.status(), v1::RESOURCE_EXHAUSTED) << refused.error();
+  EXPECT_NE(refused.error().find("progressive JPEG needs about 81000000 bytes"), std::string::npos)
+      << refused.error();
+  EXPECT_NE(refused.error().find("limits.max_decode_bytes"), std::string::npos) << refused.error();
+}
+
 // Shutdown with requests queued and running: each gets an answer or UNAVAILABLE, and
 // Shutdown returns.
 TEST(ServerShutdownTest, InFlightRequestsAreAnsweredOnShutdown) {
