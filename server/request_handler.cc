@@ -283,6 +283,7 @@ void RequestHandler::HandleStats(v1::StatsReply* reply) const {
   reply->set_map_loads(registry_->loads());
   reply->set_map_load_failures(registry_->load_failures());
   reply->set_map_unloads(registry_->unloads());
+  reply->set_replies_undelivered(s.replies_undelivered);
   for (const auto& map : registry_->List()) FillMapInfo(*map, reply->add_maps());
 }
 

@@ -157,6 +157,7 @@ class ZmqServer final : public Server {
       }
       frontend_.set(zmq::sockopt::maxmsgsize, 2 * options_.limits.max_message_bytes);
       frontend_.set(zmq::sockopt::linger, kLingerMs);
+      frontend_.set(zmq::sockopt::router_mandatory, true);
       frontend_.bind(options_.endpoint);
       endpoint_ = frontend_.get(zmq::sockopt::last_endpoint);
       replies_.bind(kRepliesEndpoint);
@@ -291,7 +292,7 @@ class ZmqServer final : public Server {
     auto refuse = [&](v1::StatusCode code, const std::string& error) {
       const v1::Reply reply = ErrorReply(peeked_id, code, error);
       RecordAndLog(&stats_, "request", reply, received);
-      SendReply(frontend_, in.identity, in.delimited, reply);
+      ToClient(in.identity, in.delimited, reply);
     };
     if (in.frames > kMaxFrames || (in.frames == 3 && !in.delimited) || in.frames < 2) {
       return refuse(v1::INVALID_ARGUMENT, "a request is [empty frame][Request] (got " +
@@ -351,7 +352,7 @@ class ZmqServer final : public Server {
       v1::Reply reply;
       handler_.Handle(job->request, job->received, &reply);
       RecordAndLog(&stats_, KindName(job->request), reply, job->received);
-      SendReply(frontend_, job->identity, job->delimited, reply);
+      ToClient(job->identity, job->delimited, reply);
       return;
     }
     const std::string connection = ConnectionKey(job->identity);
@@ -371,7 +372,7 @@ class ZmqServer final : public Server {
     const v1::Reply reply =
         ErrorReply(id, v1::OVERLOADED, "server is overloaded: " + refusal + "; retry later");
     RecordAndLog(&stats_, job->parsed ? KindName(job->request) : "localise", reply, job->received);
-    SendReply(frontend_, job->identity, job->delimited, reply);
+    ToClient(job->identity, job->delimited, reply);
   }
 
   static std::string ConnectionKey(const zmq::message_t& identity) {
@@ -403,7 +404,7 @@ class ZmqServer final : public Server {
     auto refuse = [&](v1::StatusCode code, const std::string& error) {
       const v1::Reply reply = ErrorReply(id, code, error);
       RecordAndLog(&stats_, "reload_map", reply, job->received);
-      SendReply(frontend_, job->identity, job->delimited, reply);
+      ToClient(job->identity, job->delimited, reply);
     };
     const Status checked = RequestHandler::CheckReload(job->request.reload_map());
     if (!checked.ok()) return refuse(ToWireCode(checked.code()), checked.message());
@@ -441,17 +442,60 @@ class ZmqServer final : public Server {
 
   // Moves one finished reply from a worker or the loader to its client.
   void ForwardReply() {
+    std::vector<zmq::message_t> frames;
     bool more = true;
-    bool first = true;
     while (more) {
       zmq::message_t frame;
       if (!replies_.recv(frame, zmq::recv_flags::dontwait)) return;
       more = frame.more();
-      if (first) Released(ConnectionKey(frame));  // the identity frame
-      first = false;
-      frontend_.send(frame, more ? zmq::send_flags::sndmore : zmq::send_flags::none);
+      frames.push_back(std::move(frame));
     }
+    Released(ConnectionKey(frames.front()));  // the identity frame
+    Deliver(frames);
     --outstanding_;
+  }
+
+  // Sends [identity][empty?][reply] to a client (I/O thread).
+  void ToClient(zmq::message_t& identity, bool delimited, const v1::Reply& reply) {
+    std::vector<zmq::message_t> frames;
+    frames.push_back(std::move(identity));
+    if (delimited) frames.emplace_back();
+    frames.emplace_back(reply.ByteSizeLong());
+    reply.SerializeToArray(frames.back().data(), static_cast<int>(frames.back().size()));
+    Deliver(frames);
+  }
+
+  // Sends one reply's frames on the ROUTER without ever blocking the I/O thread. The ROUTER
+  // is ZMQ_ROUTER_MANDATORY, so a reply that cannot be delivered is known rather than
+  // silently dropped: the client has gone (EHOSTUNREACH), or it has stopped reading and
+  // its connection holds ZeroMQ's high-water mark of unread replies (EAGAIN). Such a reply
+  // is dropped, counted (stats: replies_undelivered) and logged at most once a second.
+  void Deliver(std::vector<zmq::message_t>& frames) {
+    const char* why = nullptr;
+    try {
+      for (size_t i = 0; i < frames.size(); ++i) {
+        const bool last = i + 1 == frames.size();
+        const auto flags =
+            zmq::send_flags::dontwait | (last ? zmq::send_flags::none : zmq::send_flags::sndmore);
+        if (!frontend_.send(frames[i], flags)) {
+          why = "its connection has the most unread replies ZeroMQ holds (it stopped reading)";
+          break;
+        }
+      }
+    } catch (const zmq::error_t& e) {
+      if (e.num() != EHOSTUNREACH) throw;
+      why = "the client has gone";
+    }
+    if (why == nullptr) return;
+    stats_.RecordUndelivered();
+    ++undelivered_since_log_;
+    const Clock::time_point now = Clock::now();
+    if (now - last_undelivered_log_ >= std::chrono::seconds(1)) {
+      spdlog::warn("a reply was not delivered: {} ({} undelivered since the last such line)", why,
+                   undelivered_since_log_);
+      last_undelivered_log_ = now;
+      undelivered_since_log_ = 0;
+    }
   }
 
   void Released(const std::string& connection) {
@@ -464,7 +508,7 @@ class ZmqServer final : public Server {
       const v1::Reply reply = ErrorReply(job->request.request_id(), v1::UNAVAILABLE,
                                          "server shut down before this request was started");
       RecordAndLog(&stats_, KindName(job->request), reply, job->received);
-      SendReply(frontend_, job->identity, job->delimited, reply);
+      ToClient(job->identity, job->delimited, reply);
       --outstanding_;
     }
     for (std::thread& worker : workers_) worker.join();
@@ -584,6 +628,9 @@ class ZmqServer final : public Server {
   // Bytes of the requests queued or running: added by the I/O thread, taken off by the
   // worker that answered.
   std::atomic<int64_t> queued_bytes_{0};
+  // Undelivered replies not yet logged, and when the last such log line was; I/O thread.
+  uint64_t undelivered_since_log_ = 0;
+  Clock::time_point last_undelivered_log_{};
 
   std::string endpoint_;  // constant after Bind()
   std::vector<std::thread> workers_;

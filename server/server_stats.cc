@@ -47,6 +47,11 @@ void ServerStats::RecordReply(const std::string& status, bool is_localise, doubl
   if (is_localise && status == "OK") latency_.Add(latency_ms);
 }
 
+void ServerStats::RecordUndelivered() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++undelivered_;
+}
+
 StatsSnapshot ServerStats::Snapshot() const {
   StatsSnapshot s;
   s.uptime_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
@@ -59,6 +64,7 @@ StatsSnapshot ServerStats::Snapshot() const {
   s.latency_p90_ms = latency_.Percentile(0.90);
   s.latency_p99_ms = latency_.Percentile(0.99);
   s.latency_max_ms = latency_.max();
+  s.replies_undelivered = undelivered_;
   return s;
 }
 

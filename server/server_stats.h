@@ -41,6 +41,7 @@ struct StatsSnapshot {
   double latency_p90_ms = 0;
   double latency_p99_ms = 0;
   double latency_max_ms = 0;
+  uint64_t replies_undelivered = 0;
 };
 
 class ServerStats {
@@ -51,6 +52,8 @@ class ServerStats {
   // Its reply left, with this wire status name ("OK", "OVERLOADED", ...). A successful
   // localise request adds its end-to-end latency to the histogram.
   void RecordReply(const std::string& status, bool is_localise, double latency_ms);
+  // A reply could not be delivered (the client had gone or had stopped reading).
+  void RecordUndelivered();
   StatsSnapshot Snapshot() const;
 
  private:
@@ -60,6 +63,7 @@ class ServerStats {
   uint64_t requests_ = 0;
   uint64_t replies_ = 0;
   std::map<std::string, uint64_t> replies_by_status_;
+  uint64_t undelivered_ = 0;
   LatencyHistogram latency_;
 };
 

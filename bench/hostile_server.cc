@@ -1,0 +1,421 @@
+// hostile_server: issue 8's attacks on a real sceneloc-server child process, one after
+// another, while a well-behaved client localises one JPEG every half second throughout.
+// For each attack it prints what the hostile requests got, the well-behaved client's worst
+// latency during the attack beside its median at rest, the server's peak resident memory
+// beside the target (2x idle + 256 MB), and whether the server stayed up.
+//
+//   hostile_server --server-bin build/server/sceneloc-server --map gp.scnl
+//                  --query ../shared/data/gardens_point/day_right/Image000.jpg [--threads 2]
+//
+// Not a test (it takes about two minutes and measures): scripts/hostile.sh runs it on the
+// Gardens Point map; docs/results.md has its figures.
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <mutex>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
+#include <thread>
+#include <zmq.hpp>
+
+#include "client/client.h"
+#include "common/map/map_io.h"
+#include "proto/wire.h"
+
+namespace sceneloc {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+double Ms(Clock::duration d) { return std::chrono::duration<double, std::milli>(d).count(); }
+
+std::string ReadAll(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// sceneloc-server as a child process, its output in a log file.
+class ServerChild {
+ public:
+  ServerChild(const std::string& bin, const std::string& maps, int threads, const std::string& log)
+      : log_(log) {
+    pid_ = fork();
+    if (pid_ == 0) {
+      FILE* f = std::freopen(log.c_str(), "w", stdout);
+      if (f == nullptr || dup2(STDOUT_FILENO, STDERR_FILENO) < 0) _exit(127);
+      execl(bin.c_str(), bin.c_str(), "--maps", maps.c_str(), "--endpoint", "tcp://127.0.0.1:*",
+            "--threads", std::to_string(threads).c_str(), "--log-level", "info",
+            "--summary-interval", "0", static_cast<char*>(nullptr));
+      _exit(127);
+    }
+  }
+  ~ServerChild() {
+    if (pid_ > 0) {
+      kill(pid_, SIGTERM);
+      waitpid(pid_, nullptr, 0);
+    }
+  }
+  // The endpoint from the "serving ... on tcp://..." log line; empty after 60 s.
+  std::string WaitForEndpoint() const {
+    for (int i = 0; i < 600; ++i) {
+      const std::string log = ReadAll(log_);
+      const size_t at = log.find(" on tcp://");
+      if (at != std::string::npos) return log.substr(at + 4, log.find(' ', at + 4) - at - 4);
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    return {};
+  }
+  bool alive() const {
+    return pid_ > 0 && kill(pid_, 0) == 0 && waitpid(pid_, nullptr, WNOHANG) == 0;
+  }
+  double RssMb() const {
+    std::ifstream in("/proc/" + std::to_string(pid_) + "/status");
+    std::string line;
+    while (std::getline(in, line)) {
+      if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
+    }
+    return 0;
+  }
+  void Signal(int signal) const { kill(pid_, signal); }
+
+ private:
+  std::string log_;
+  pid_t pid_ = -1;
+};
+
+// The well-behaved client: one JPEG every 500 ms, each call's start and latency recorded.
+class GoodClient {
+ public:
+  GoodClient(const std::string& endpoint, std::string jpeg) : jpeg_(std::move(jpeg)) {
+    ClientOptions options;
+    options.timeout_ms = 30000;
+    options.retries = 0;
+    client_ = std::move(Client::Connect(endpoint, options)).value();
+    thread_ = std::thread([this] { Run(); });
+  }
+  ~GoodClient() {
+    stop_ = true;
+    thread_.join();
+  }
+  // Latencies (ms) of calls started in [from, to], and the failures among them.
+  std::vector<double> Latencies(Clock::time_point from, Clock::time_point to, int* failures) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    std::vector<double> out;
+    *failures = 0;
+    for (const Call& c : calls_) {
+      if (c.start < from || c.start > to) continue;
+      out.push_back(c.ms);
+      *failures += !c.ok;
+    }
+    return out;
+  }
+
+ private:
+  struct Call {
+    Clock::time_point start;
+    double ms;
+    bool ok;
+  };
+  void Run() {
+    while (!stop_) {
+      const Clock::time_point start = Clock::now();
+      const bool ok = client_->Localise("gp", jpeg_).ok();
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        calls_.push_back({start, Ms(Clock::now() - start), ok});
+      }
+      std::this_thread::sleep_until(start + std::chrono::milliseconds(500));
+    }
+  }
+  std::string jpeg_;
+  std::unique_ptr<Client> client_;
+  mutable std::mutex mutex_;
+  std::vector<Call> calls_;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+// Sends `requests` on one DEALER each (or all on one when `one_socket`) and, unless
+// `read` is false, collects the replies' statuses for up to `wait`.
+std::map<std::string, int> Fire(zmq::context_t& ctx, const std::string& endpoint,
+                                const std::vector<std::string>& requests, bool one_socket,
+                                bool read, std::chrono::seconds wait,
+                                std::vector<zmq::socket_t>* keep = nullptr) {
+  std::vector<zmq::socket_t> sockets;
+  for (size_t i = 0; i < requests.size(); ++i) {
+    if (!one_socket || sockets.empty()) {
+      sockets.emplace_back(ctx, zmq::socket_type::dealer);
+      sockets.back().set(zmq::sockopt::linger, 0);
+      sockets.back().set(zmq::sockopt::sndhwm, 0);
+      sockets.back().connect(endpoint);
+    }
+    sockets.back().send(zmq::message_t(), zmq::send_flags::sndmore);
+    sockets.back().send(zmq::buffer(requests[i]), zmq::send_flags::none);
+  }
+  std::map<std::string, int> statuses;
+  if (read) {
+    size_t got = 0;
+    const Clock::time_point deadline = Clock::now() + wait;
+    while (got < requests.size() && Clock::now() < deadline) {
+      std::vector<zmq::pollitem_t> items;
+      for (auto& s : sockets) items.push_back({s.handle(), 0, ZMQ_POLLIN, 0});
+      if (zmq::poll(items, std::chrono::milliseconds(200)) == 0) continue;
+      for (size_t i = 0; i < items.size(); ++i) {
+        if (!(items[i].revents & ZMQ_POLLIN)) continue;
+        zmq::message_t frame;
+        bool more = true;
+        v1::Reply reply;
+        while (more && sockets[i].recv(frame, zmq::recv_flags::dontwait)) {
+          more = frame.more();
+          if (!more && reply.ParseFromArray(frame.data(), static_cast<int>(frame.size()))) {
+            ++statuses[v1::StatusCode_Name(reply.status())];
+            ++got;
+          }
+        }
+      }
+    }
+    if (got < requests.size()) statuses["NO_REPLY"] += static_cast<int>(requests.size() - got);
+  }
+  if (keep != nullptr) {
+    for (auto& s : sockets) keep->push_back(std::move(s));
+  }
+  return statuses;
+}
+
+std::string Localise(const std::string& jpeg) {
+  v1::Request r;
+  r.mutable_localise()->set_map("gp");
+  r.mutable_localise()->set_jpeg(jpeg);
+  return r.SerializeAsString();
+}
+
+std::string Encode(const cv::Mat& image, bool progressive) {
+  std::vector<uint8_t> out;
+  cv::imencode(".jpg", image, out,
+               {cv::IMWRITE_JPEG_PROGRESSIVE, progressive ? 1 : 0, cv::IMWRITE_JPEG_QUALITY, 80});
+  return std::string(out.begin(), out.end());
+}
+
+// The JPEG with its last scan repeated `extra` times before the end-of-image marker.
+std::string WithExtraScans(const std::string& jpeg, int extra) {
+  const size_t sos = jpeg.rfind("\xff\xda");
+  const size_t eoi = jpeg.rfind("\xff\xd9");
+  const std::string scan = jpeg.substr(sos, eoi - sos);
+  std::string out = jpeg.substr(0, eoi);
+  for (int i = 0; i < extra; ++i) out += scan;
+  return out + "\xff\xd9";
+}
+
+struct Outcome {
+  std::string name;
+  std::string hostile;  // what the hostile requests got
+};
+
+std::string Statuses(const std::map<std::string, int>& s) {
+  std::string out;
+  for (const auto& [k, v] : s) out += (out.empty() ? "" : " ") + k + "=" + std::to_string(v);
+  return out.empty() ? "(not read)" : out;
+}
+
+int Run(const std::string& server_bin, const std::string& map_path, const std::string& query_path,
+        int threads) {
+  const fs::path dir = fs::temp_directory_path() / ("sceneloc-hostile-" + std::to_string(getpid()));
+  const fs::path maps = dir / "maps";
+  fs::create_directories(maps);
+  fs::copy_file(map_path, maps / "gp.scnl");
+  const std::string jpeg = ReadAll(query_path);
+  const cv::Mat query = cv::imread(query_path);
+  if (query.empty()) {
+    std::fprintf(stderr, "hostile_server: cannot read %s\n", query_path.c_str());
+    return 2;
+  }
+  auto map = LoadMap(map_path);
+  if (!map.ok()) {
+    std::fprintf(stderr, "hostile_server: %s\n", map.status().ToString().c_str());
+    return 2;
+  }
+
+  ServerChild server(server_bin, maps.string(), threads, (dir / "server.log").string());
+  const std::string endpoint = server.WaitForEndpoint();
+  if (endpoint.empty()) {
+    std::fprintf(stderr, "hostile_server: the server did not start; see %s\n",
+                 (dir / "server.log").c_str());
+    return 1;
+  }
+  GoodClient good(endpoint, jpeg);
+  std::this_thread::sleep_for(std::chrono::seconds(3));  // warm up
+  const double idle_mb = server.RssMb();
+  const double target_mb = 2 * idle_mb + 256;
+  int failures = 0;
+  std::vector<double> rest =
+      good.Latencies(Clock::now() - std::chrono::seconds(3), Clock::now(), &failures);
+  std::sort(rest.begin(), rest.end());
+  const double rest_p50 = rest.empty() ? 0 : rest[rest.size() / 2];
+  std::printf(
+      "server %s, --threads %d, map %s; idle RSS %.0f MB, target peak %.0f MB; good "
+      "client at rest: p50 %.1f ms\n\n",
+      endpoint.c_str(), threads, map_path.c_str(), idle_mb, target_mb, rest_p50);
+  std::printf("%-34s | %-44s | %9s | %9s | %s\n", "attack", "hostile requests got", "good worst",
+              "peak RSS", "server");
+
+  zmq::context_t ctx;
+  bool all_ok = true;
+  auto attack = [&](const std::string& name, const std::function<std::string()>& body) {
+    std::atomic<bool> sampling{true};
+    double peak = 0;
+    std::thread sampler([&] {
+      while (sampling) {
+        peak = std::max(peak, server.RssMb());
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      }
+    });
+    const Clock::time_point from = Clock::now();
+    const std::string got = body();
+    std::this_thread::sleep_for(std::chrono::seconds(2));  // the aftermath counts too
+    sampling = false;
+    sampler.join();
+    int failed = 0;
+    const std::vector<double> lat = good.Latencies(from, Clock::now(), &failed);
+    const double worst = lat.empty() ? 0 : *std::max_element(lat.begin(), lat.end());
+    const bool up = server.alive();
+    all_ok = all_ok && up && worst <= 1000 + rest_p50 && failed == 0 && peak <= target_mb;
+    std::printf("%-34s | %-44s | %6.0f ms | %6.0f MB | %s%s\n", name.c_str(), got.c_str(), worst,
+                peak, up ? "up" : "DOWN",
+                failed ? (", good client failed " + std::to_string(failed)).c_str() : "");
+    std::fflush(stdout);
+  };
+
+  attack("feature set: 8192 copies x2", [&] {
+    FeatureSet f;
+    f.image_width = map->image_width;
+    f.image_height = map->image_height;
+    f.keypoints.assign(8192, Keypoint{100, 100, 8, 0, 1, 0});
+    f.local = map->local_mean.row(0).replicate(8192, 1);
+    f.context = map->context_mean.row(0).replicate(8192, 1);
+    f.local.rowwise().normalize();
+    f.context.rowwise().normalize();
+    v1::Request r;
+    r.mutable_localise()->set_map("gp");
+    EncodeFeatureSet(f, DescriptorEncoding::kUint8, r.mutable_localise()->mutable_features());
+    return Statuses(Fire(ctx, endpoint, {r.SerializeAsString(), r.SerializeAsString()}, false, true,
+                         std::chrono::seconds(60)));
+  });
+  attack("4096x4096 progressive JPEG x2", [&] {
+    cv::Mat big;
+    cv::resize(query, big, cv::Size(4096, 4096), 0, 0, cv::INTER_CUBIC);
+    const std::string r = Localise(Encode(big, true));
+    return Statuses(Fire(ctx, endpoint, {r, r}, false, true, std::chrono::seconds(60)));
+  });
+  attack("JPEG with 1500 extra scans", [&] {
+    const std::string r = Localise(WithExtraScans(Encode(query, true), 1500));
+    return Statuses(Fire(ctx, endpoint, {r}, false, true, std::chrono::seconds(60)));
+  });
+  attack("16 requests of ~8 MiB at once", [&] {
+    std::string junk((8 << 20) - 4096, '\0');
+    for (size_t i = 0; i < junk.size(); ++i) junk[i] = static_cast<char>(i * 2654435761u >> 24);
+    return Statuses(Fire(ctx, endpoint, std::vector<std::string>(16, Localise(junk)), false, true,
+                         std::chrono::seconds(60)));
+  });
+  std::vector<zmq::socket_t> silent;
+  attack("200 clients that never read", [&] {
+    Fire(ctx, endpoint, std::vector<std::string>(200, Localise(jpeg)), false, false,
+         std::chrono::seconds(0), &silent);
+    std::this_thread::sleep_for(std::chrono::seconds(8));
+    return std::string("200 sent, none read");
+  });
+  silent.clear();
+  attack("one connection pipelining 100", [&] {
+    return Statuses(Fire(ctx, endpoint, std::vector<std::string>(100, Localise(jpeg)), true, true,
+                         std::chrono::seconds(60)));
+  });
+  attack("20,000 reload_map requests", [&] {
+    v1::Request r;
+    r.mutable_reload_map()->set_map("gp");
+    // 900 per connection: ZeroMQ drops replies beyond a reader's high-water mark of 1000.
+    std::vector<std::string> batch(900, r.SerializeAsString());
+    std::map<std::string, int> total;
+    std::vector<std::thread> senders;
+    std::mutex m;
+    for (int c = 0; c < 22; ++c) {
+      senders.emplace_back([&] {
+        zmq::context_t own;
+        auto s = Fire(own, endpoint, batch, true, true, std::chrono::seconds(120));
+        std::lock_guard<std::mutex> lock(m);
+        for (auto& [k, v] : s) total[k] += v;
+      });
+    }
+    for (auto& t : senders) t.join();
+    return Statuses(total);
+  });
+  attack("sparse 100 GB *.scnl + SIGHUP", [&] {
+    const fs::path huge = maps / "huge.scnl";
+    { std::ofstream(huge) << ""; }
+    fs::resize_file(huge, uintmax_t{100} << 30);
+    server.Signal(SIGHUP);
+    std::this_thread::sleep_for(std::chrono::seconds(3));
+    fs::remove(huge);
+    return std::string("logged and skipped");
+  });
+  attack("maps folder moved and replaced", [&] {
+    fs::rename(maps, dir / "maps.old");
+    fs::create_directories(maps);
+    fs::copy_file(dir / "maps.old" / "gp.scnl", maps / "gp.scnl");
+    fs::copy_file(dir / "maps.old" / "gp.scnl", maps / "gp2.scnl");
+    ClientOptions options;
+    options.timeout_ms = 5000;
+    auto client = std::move(Client::Connect(endpoint, options)).value();
+    const Clock::time_point start = Clock::now();
+    while (Clock::now() - start < std::chrono::seconds(10)) {
+      auto listed = client->ListMaps();
+      if (listed.ok() && listed->maps_size() == 2) {
+        return "gp2 served after " + std::to_string(static_cast<int>(Ms(Clock::now() - start))) +
+               " ms";
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    return std::string("gp2 NOT served within 10 s");
+  });
+  attack("1x1, 4x4 and 4096x1 JPEGs", [&] {
+    std::vector<std::string> r;
+    for (const cv::Size s : {cv::Size(1, 1), cv::Size(4, 4), cv::Size(4096, 1)}) {
+      r.push_back(Localise(Encode(cv::Mat(s, CV_8UC3, cv::Scalar(1, 2, 3)), false)));
+    }
+    return Statuses(Fire(ctx, endpoint, r, false, true, std::chrono::seconds(30)));
+  });
+  std::printf(
+      "\n%s (criteria: server up, good client never failed nor waited more than 1 s "
+      "beyond its median, peak RSS within the target)\n",
+      all_ok ? "ALL WITHIN TARGETS" : "SOME ATTACK PASSED A TARGET");
+  fs::remove_all(dir);
+  return all_ok ? 0 : 1;
+}
+
+}  // namespace
+}  // namespace sceneloc
+
+int main(int argc, char** argv) {
+  CLI::App app{"hostile_server: issue 8's attacks on a sceneloc-server child process"};
+  std::string server_bin, map, query;
+  int threads = 2;
+  app.add_option("--server-bin", server_bin, "the sceneloc-server executable")->required();
+  app.add_option("--map", map, "a map file, served as 'gp'")->required();
+  app.add_option("--query", query, "a JPEG of the map's route (the good client's frame)")
+      ->required();
+  app.add_option("--threads", threads, "server worker threads")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+  return sceneloc::Run(server_bin, map, query, threads);
+}
