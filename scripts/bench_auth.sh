@@ -10,12 +10,11 @@ out="$(mkdir -p "${1:-$root/bench-out}" && cd "${1:-$root/bench-out}" && pwd)"
 data="${2:-$root/../shared/data/gardens_point}"
 seconds="${3:-10}"
 rounds="${4:-2}"
-[[ -d "$data/day_left" && -d "$data/day_right" ]] || {
-  echo "bench_auth: $data/day_left and day_right are needed" >&2; exit 1; }
 build="$root/build"
 client="$build/client/sceneloc"
 # shellcheck source=scripts/bench_common.sh
 source "$root/scripts/bench_common.sh"
+need_gp_data "$data"
 
 bash "$root/scripts/build.sh" >/dev/null
 train_gp_map "$data"

@@ -33,6 +33,12 @@ start_server() {
 
 rss_mb() { awk '/VmRSS/ {printf "%.1f", $2 / 1024}' "/proc/$server_pid/status"; }
 
+# need_gp_data DATA: exits with a message unless DATA holds day_left and day_right.
+need_gp_data() {
+  [[ -d "$1/day_left" && -d "$1/day_right" ]] || {
+    echo "${0##*/}: $1/day_left and day_right are needed" >&2; exit 1; }
+}
+
 # train_gp_map DATA: trains $out/maps/gp.scnl from DATA/day_left unless it is there.
 train_gp_map() {
   mkdir -p "$out/maps"

@@ -9,13 +9,12 @@ root="$(cd "$(dirname "$0")/.." && pwd)"
 out="$(mkdir -p "${1:-$root/bench-out}" && cd "${1:-$root/bench-out}" && pwd)"
 data="${2:-$root/../shared/data/gardens_point}"
 seconds="${3:-15}"
-[[ -d "$data/day_left" && -d "$data/day_right" ]] || {
-  echo "bench_server: $data/day_left and day_right are needed" >&2; exit 1; }
 build="$root/build"
 client="$build/client/sceneloc"
 
 # shellcheck source=scripts/bench_common.sh
 source "$root/scripts/bench_common.sh"
+need_gp_data "$data"
 
 # bench NAME CLIENTS [EXTRA...]: one sceneloc bench run over the day_right images.
 bench() {

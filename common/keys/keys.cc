@@ -34,15 +34,20 @@ std::string DecodeZ85(const std::string& z85) {
   return binary;
 }
 
-StatusOr<YAML::Node> ReadYaml(const std::string& path) {
+StatusOr<std::string> ReadText(const std::string& path) {
   std::error_code error;
   if (!fs::exists(path, error)) return NotFound(path + ": no such file");
   std::ifstream in(path);
   if (!in) return IoError(path + ": cannot be read");
   std::stringstream text;
   text << in.rdbuf();
+  return text.str();
+}
+
+StatusOr<YAML::Node> ReadYaml(const std::string& path) {
+  SCENELOC_ASSIGN_OR_RETURN(const std::string text, ReadText(path));
   try {
-    return YAML::Load(text.str());
+    return YAML::Load(text);
   } catch (const YAML::Exception& e) {
     return InvalidArgument(path + ": not YAML: " + e.what());
   }
@@ -145,13 +150,8 @@ StatusOr<KeyPair> ReadKeyFile(const std::string& path, bool need_secret) {
 }
 
 StatusOr<std::shared_ptr<const AuthorisedKeys>> AuthorisedKeys::Load(const std::string& path) {
-  std::error_code error;
-  if (!fs::exists(path, error)) return NotFound(path + ": no such file");
-  std::ifstream in(path);
-  if (!in) return IoError(path + ": cannot be read");
-  std::stringstream text;
-  text << in.rdbuf();
-  return Parse(text.str(), path);
+  SCENELOC_ASSIGN_OR_RETURN(const std::string text, ReadText(path));
+  return Parse(text, path);
 }
 
 StatusOr<std::shared_ptr<const AuthorisedKeys>> AuthorisedKeys::Parse(const std::string& yaml,
