@@ -1,20 +1,29 @@
 #!/usr/bin/env bash
-# Builds the test suite with AddressSanitizer + UndefinedBehaviorSanitizer (g++,
-# RelWithDebInfo) into ./build-asan and runs it: any memory error, leak or undefined
-# behaviour fails the test it happens in. Extra arguments go to ctest. Takes about 3x the
-# plain build and test time (CI runs it after scripts/test.sh).
+# Builds the test suite with AddressSanitizer + UndefinedBehaviorSanitizer (g++, -O1
+# -g1) into ./build-asan and runs it: any memory error, leak or undefined behaviour fails
+# the test it happens in. Extra arguments go to ctest. CI runs it after scripts/test.sh.
+#
+# Under the sanitizers our Eigen and SIFT-heavy code runs 10-20x slower (measured: the
+# end-to-end train-and-localise test 192 s against 10 s), so the whole-pipeline tests are
+# left to the plain suite: the real-data evaluation, the end-to-end and frame-size tests,
+# the generated tour's SIFT checks and the CLI's train-then-eval. Every unit, server and
+# client test runs here. SCENELOC_SANITIZE_ALL=1 runs everything (about 40 minutes).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 if [[ ! -f build-asan/CMakeCache.txt ]]; then
   generator=()
   command -v ninja >/dev/null && generator=(-G Ninja)
-  cmake -S . -B build-asan "${generator[@]}" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DASAN=ON -DUBSAN=ON \
-    -DSCENELOC_BUILD_BENCHMARKS=OFF
+  cmake -S . -B build-asan "${generator[@]}" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" -DASAN=ON -DUBSAN=ON -DSCENELOC_BUILD_BENCHMARKS=OFF
 fi
 cmake --build build-asan -j"$(nproc)"
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:allocator_may_return_null=1}
 export LSAN_OPTIONS=${LSAN_OPTIONS:-suppressions=$PWD/tests/lsan.supp:print_suppressions=0}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 cd build-asan
-ctest --output-on-failure -j"$(nproc)" "$@"
+exclude=()
+if [[ "${SCENELOC_SANITIZE_ALL:-0}" != 1 ]]; then
+  exclude=(-E 'RealDataTest|EndToEndTest|FramesTest|TrainFramesMap|TourGeneratorSiftTest|CliTest.TrainThenEval')
+fi
+ctest --output-on-failure -j"$(nproc)" "${exclude[@]}" "$@"

@@ -95,6 +95,11 @@ ServerOptions TestServerOptions() {
   options.threads = 2;
   options.summary_interval_s = 0;
   options.log_level = "warn";
+#if defined(__SANITIZE_ADDRESS__)
+  // Under ASan + UBSan (scripts/sanitize.sh) requests run 10-20x slower; the default 5 s
+  // budget would turn slowness into DEADLINE_EXCEEDED. Tests of the deadline set their own.
+  options.limits.max_request_ms = 120000;
+#endif
   return options;
 }
 

@@ -38,7 +38,7 @@ struct TestServer {
   std::string endpoint;
 };
 // Options for a test server: endpoint tcp://127.0.0.1:*, maps_dir TestMapsDir(), 2 threads,
-// summaries off, log level warn.
+// summaries off, log level warn (and a 120 s request budget under ASan).
 ServerOptions TestServerOptions();
 // Starts a server with `options` (gtest-fatal on failure: check with HasFatalFailure).
 TestServer StartTestServer(const ServerOptions& options);
