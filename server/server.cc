@@ -358,6 +358,7 @@ class ZmqServer final : public Server {
     const std::string connection = ConnectionKey(job->identity);
     const size_t bytes = job->bytes;
     std::string refusal = AdmissionRefusal(connection, bytes);
+    if (refusal.empty()) refusal = WaitRefusal();
     if (refusal.empty()) {
       if (queue_.TryPush(job)) {
         ++outstanding_;
@@ -373,6 +374,21 @@ class ZmqServer final : public Server {
         ErrorReply(id, v1::OVERLOADED, "server is overloaded: " + refusal + "; retry later");
     RecordAndLog(&stats_, job->parsed ? KindName(job->request) : "localise", reply, job->received);
     ToClient(job->identity, job->delimited, reply);
+  }
+
+  // Empty when the work queued ahead of a new request is estimated to take no longer than
+  // limits.max_queue_wait_ms; else the estimate and the limit.
+  std::string WaitRefusal() const {
+    const double per_request_ms = service_ms_.load(std::memory_order_relaxed);
+    // The requests waiting ahead of this one; those already running are not counted (an
+    // idle server admits anything, however slow).
+    const double wait_ms = static_cast<double>(queue_.size()) * per_request_ms / options_.threads;
+    if (wait_ms <= options_.limits.max_queue_wait_ms) return {};
+    return "about " + std::to_string(static_cast<int>(wait_ms)) + " ms of work (" +
+           std::to_string(queue_.size()) + " requests of ~" +
+           std::to_string(static_cast<int>(per_request_ms)) +
+           " ms) is queued ahead of this request; limits.max_queue_wait_ms is " +
+           std::to_string(options_.limits.max_queue_wait_ms);
   }
 
   static std::string ConnectionKey(const zmq::message_t& identity) {
@@ -562,7 +578,13 @@ class ZmqServer final : public Server {
       // (the stats or the reply itself out of memory), so no worker ever ends the process.
       try {
         v1::Reply reply;
-        if (ParseOnWorker(j, &reply)) handler_.Handle(j.request, j.received, &reply);
+        const Clock::time_point start = Clock::now();
+        if (IsStale(j, start, &reply)) {
+          // answered OVERLOADED without the work
+        } else if (ParseOnWorker(j, &reply)) {
+          handler_.Handle(j.request, j.received, &reply);
+          RecordServiceTime(MsSince(start));
+        }
         RecordAndLog(&stats_, KindName(j.request), reply, j.received);
         SendReply(push, j.identity, j.delimited, reply);
       } catch (const zmq::error_t& e) {
@@ -578,6 +600,29 @@ class ZmqServer final : public Server {
         }
       }
       queued_bytes_ -= static_cast<int64_t>(j.bytes);
+    }
+  }
+
+  // A request that waited for a worker longer than twice limits.max_queue_wait_ms is not
+  // worked on: its client gets OVERLOADED now (and is likely to have retried already).
+  bool IsStale(const Job& j, Clock::time_point now, v1::Reply* reply) const {
+    const double waited_ms = std::chrono::duration<double, std::milli>(now - j.received).count();
+    if (waited_ms <= 2.0 * options_.limits.max_queue_wait_ms) return false;
+    const uint64_t id = j.parsed ? j.request.request_id() : PeekRequestId(j.raw);
+    *reply = ErrorReply(id, v1::OVERLOADED,
+                        "server is overloaded: this request waited " +
+                            std::to_string(static_cast<int>(waited_ms)) +
+                            " ms for a worker, more than twice limits.max_queue_wait_ms (" +
+                            std::to_string(options_.limits.max_queue_wait_ms) +
+                            "); it was not worked on; retry later");
+    return true;
+  }
+
+  // Folds one request's worker time into the running mean the admission estimate uses.
+  void RecordServiceTime(double ms) {
+    double old = service_ms_.load(std::memory_order_relaxed);
+    while (!service_ms_.compare_exchange_weak(old, old == 0 ? ms : 0.8 * old + 0.2 * ms,
+                                              std::memory_order_relaxed)) {
     }
   }
 
@@ -628,6 +673,9 @@ class ZmqServer final : public Server {
   // Bytes of the requests queued or running: added by the I/O thread, taken off by the
   // worker that answered.
   std::atomic<int64_t> queued_bytes_{0};
+  // Recent mean time a localise request holds a worker, ms (exponentially weighted; 0
+  // until the first one): the admission estimate of limits.max_queue_wait_ms.
+  std::atomic<double> service_ms_{0};
   // Undelivered replies not yet logged, and when the last such log line was; I/O thread.
   uint64_t undelivered_since_log_ = 0;
   Clock::time_point last_undelivered_log_{};

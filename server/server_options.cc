@@ -50,6 +50,8 @@ SettingTable Fields(ServerOptions* o) {
        "bytes of requests queued or running, all connections; more get OVERLOADED"},
       {"limits", "max_decode_bytes", &l->max_decode_bytes, 1 << 20, 1e15,
        "memory the JPEG decodes running at once may hold together, bytes"},
+      {"limits", "max_queue_wait_ms", &l->max_queue_wait_ms, 1, 3600000,
+       "longest estimated wait for a worker before OVERLOADED, ms"},
       {"auth", "enabled", &o->auth.enabled, 0, 0,
        "CURVE encryption, admitting only the keys in auth.clients", "auth"},
       {"auth", "server_key", &o->auth.server_key, 0, 0, "the server's key pair file (.key)",
@@ -77,6 +79,7 @@ Status RequestLimits::Validate() const {
   if (max_request_ms < 1) return InvalidArgument("max_request_ms must be >= 1");
   if (max_in_flight_per_client < 1) return InvalidArgument("max_in_flight_per_client must be >= 1");
   if (max_decode_bytes < (1 << 20)) return InvalidArgument("max_decode_bytes must be >= 1 MiB");
+  if (max_queue_wait_ms < 1) return InvalidArgument("max_queue_wait_ms must be >= 1");
   if (max_queued_bytes < max_message_bytes) {
     return InvalidArgument("max_queued_bytes (" + std::to_string(max_queued_bytes) +
                            ") must be >= max_message_bytes (" + std::to_string(max_message_bytes) +
@@ -140,13 +143,14 @@ Status ApplyServerFlags(const std::vector<std::pair<ServerFlag, std::string>>& f
   ServerOptions updated = *options;
   const SettingTable fields = Fields(&updated);
   std::string names;
-  for (const auto& [flag, value] : flags) {
+  for (const auto& given : flags) {
+    const ServerFlag& flag = given.first;  // not a structured binding: the lambda captures it
     const std::string where = "--" + flag.flag;
     const auto it = std::find_if(fields.begin(), fields.end(), [&](const SettingField& f) {
       return flag.section == f.section && flag.key == f.key;
     });
     if (it == fields.end()) return InvalidArgument(where + " is not a server setting");
-    SCENELOC_RETURN_IF_ERROR(ApplySetting(*it, value, where));
+    SCENELOC_RETURN_IF_ERROR(ApplySetting(*it, given.second, where));
     names += (names.empty() ? "" : ", ") + where;
   }
   const Status valid = updated.Validate();

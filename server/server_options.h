@@ -4,7 +4,7 @@
 //              log_level, summary_interval_s, drain_timeout_s
 //   limits:    max_message_bytes, max_image_side, max_image_pixels, max_keypoints, max_top_k,
 //              max_request_ms, max_jpeg_scans, max_map_bytes, max_in_flight_per_client,
-//              max_queued_bytes, max_decode_bytes
+//              max_queued_bytes, max_decode_bytes, max_queue_wait_ms
 //   auth:      enabled, server_key, clients
 //   matching:  as configs/match.yaml (common/config/config.h)
 //
@@ -57,6 +57,13 @@ struct RequestLimits {
   // request's deadline; a JPEG that could never fit gets RESOURCE_EXHAUSTED. The default
   // holds one largest progressive JPEG (4096 x 4096: 150 MiB) or many ordinary ones.
   int64_t max_decode_bytes = int64_t{192} << 20;
+  // Longest a request should wait for a worker, milliseconds. A request arriving when the
+  // work queued ahead of it is estimated to take longer (queued requests x the recent mean
+  // time a request holds a worker / workers) gets OVERLOADED at once, and a request that
+  // has waited longer than twice this when a worker takes it is answered OVERLOADED
+  // without being worked on: under overload clients learn it in milliseconds instead of
+  // waiting seconds, and the requests that are admitted are answered fresh.
+  int max_queue_wait_ms = 1000;
 
   Status Validate() const;
 };

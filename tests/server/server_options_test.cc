@@ -74,11 +74,11 @@ TEST(ServerOptionsTest, FlagsOverrideWithTheSameChecks) {
   ASSERT_TRUE(ParseServerOptions(ServerOptionsToYaml(options), "yaml", &again).ok());
   EXPECT_EQ(again.maps_dir, "/srv/maps");
   EXPECT_EQ(again.matching.s_min, 0.4);
-  // One flag per field: 20 server and limits fields, 3 auth fields, and every matching field.
+  // One flag per field: 21 server and limits fields, 3 auth fields, and every matching field.
   const std::vector<ServerFlag> flags = ServerFlags();
   const auto matching = std::count_if(flags.begin(), flags.end(),
                                       [](const ServerFlag& f) { return f.section == "matching"; });
-  EXPECT_EQ(flags.size() - static_cast<size_t>(matching), 23u);
+  EXPECT_EQ(flags.size() - static_cast<size_t>(matching), 24u);
   ASSERT_TRUE(ApplyServerFlag(Flag("max-map-bytes"), "1048576", &options).ok());
   EXPECT_EQ(options.limits.max_map_bytes, 1048576);
   EXPECT_FALSE(ApplyServerFlag(Flag("max-map-bytes"), "10", &options).ok());

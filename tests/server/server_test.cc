@@ -580,6 +580,52 @@ TEST(ServerFairnessTest, LargeRequestsAreParsedByWorkers) {
   EXPECT_NEAR(reply.localise().locations(0).index(), 7, 1);
 }
 
+// Many connections with one large request each (no per-connection cap applies): once the
+// queued work is estimated to pass limits.max_queue_wait_ms, the rest get OVERLOADED at
+// once naming it, and a client arriving meanwhile gets its answer (or that refusal) within
+// about that wait, not behind the whole flood.
+TEST(ServerFairnessTest, QueueWaitIsBounded) {
+  ServerOptions options = test::TestServerOptions();
+  options.threads = 1;
+  options.limits.max_queue_wait_ms = 400;
+  test::TestServer server = test::StartTestServer(options);
+  ASSERT_NE(server.server, nullptr);
+  const v1::Request request = LocaliseJpeg(LargeJpeg(6));
+  // One request first, so the server knows what a request costs.
+  ASSERT_EQ(RawCall(server.endpoint, {"", request.SerializeAsString()}).status(), v1::OK);
+  zmq::context_t context;
+  constexpr int kConnections = 30;
+  std::vector<zmq::socket_t> flood;
+  for (int c = 0; c < kConnections; ++c) {
+    flood.push_back(SendBurst(&context, server.endpoint, request, 1));
+  }
+  const auto start = std::chrono::steady_clock::now();
+  auto good = MustConnect(server.endpoint);
+  const StatusOr<v1::LocaliseReply> answer = good->Localise(kTestMapName, test::TourFeatures(8));
+  const double waited_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_TRUE(answer.ok() || answer.status().code() == StatusCode::kResourceExhausted)
+      << answer.status().ToString();
+  int ok = 0, overloaded = 0;
+  for (zmq::socket_t& socket : flood) {
+    CollectReplies(&socket, 1, [&](const v1::Reply& reply) {
+      if (reply.status() == v1::OK) {
+        ++ok;
+        return;
+      }
+      ++overloaded;
+      EXPECT_EQ(reply.status(), v1::OVERLOADED) << reply.error();
+      EXPECT_NE(reply.error().find("limits.max_queue_wait_ms"), std::string::npos)
+          << reply.error();
+    });
+  }
+  EXPECT_GE(ok, 1);
+  EXPECT_GE(overloaded, kConnections / 2);
+  // 30 requests of this size take several seconds on one worker; the good client is not
+  // behind all of them (generous bound: the estimate is a running mean).
+  EXPECT_LT(waited_ms, 4 * options.limits.max_queue_wait_ms + 1000) << waited_ms;
+}
+
 // JPEG decodes share limits.max_decode_bytes: a JPEG that could never fit is refused from
 // its header with the figures; JPEGs that fit one at a time are all answered (each waits
 // for the one before it).
