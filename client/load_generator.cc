@@ -47,12 +47,21 @@ void Record(const StatusOr<v1::Reply>& reply, double ms, ClientTally* tally) {
 // One client: requests back to back, starting at `first`, until `deadline`.
 void RunClient(Client* client, const std::vector<v1::Request>& requests, size_t first,
                Clock::time_point deadline, ClientTally* tally) {
+  int overloaded_in_a_row = 0;
   for (size_t i = first; Clock::now() < deadline; i = (i + 1) % requests.size()) {
     v1::Request request = requests[i];  // Call takes it by value; copy before the clock
     const auto start = Clock::now();
     const StatusOr<v1::Reply> reply = client->Call(std::move(request));
     const double ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
     Record(reply, ms, tally);
+    // As a robot should: after OVERLOADED, back off (10 ms doubling to 320 ms) instead of
+    // asking again at once; a storm of instant retries takes the CPU the workers need.
+    if (reply.ok() && reply->status() == v1::OVERLOADED) {
+      std::this_thread::sleep_for(
+          std::chrono::milliseconds(10 << std::min(overloaded_in_a_row++, 5)));
+    } else {
+      overloaded_in_a_row = 0;
+    }
   }
   tally->finished = Clock::now();
 }

@@ -31,7 +31,8 @@ struct LoadOptions {
   // is waited for, at most timeout_ms.
   double duration_s = 10;
   // Per-request timeout, milliseconds (>= 1). A request is not retried: a timeout is
-  // counted as the error NO_REPLY, so retries cannot hide failures.
+  // counted as the error NO_REPLY, so retries cannot hide failures. After an OVERLOADED
+  // reply a client thread backs off (10 ms, doubling to 320 ms) before its next request.
   int timeout_ms = 10000;
   // Ranked locations asked for (0 = the server's default).
   int top_k = 0;
