@@ -123,15 +123,17 @@ TEST(ServerProcessTest, SigtermDrainsInFlightRequestsAndExitsZero) {
     socket.send(zmq::message_t(), zmq::send_flags::sndmore);
     socket.send(zmq::buffer(request.SerializeAsString()), zmq::send_flags::none);
   }
-  // Signal once the server holds them all (its Stats counts them).
+  // Signal once the server holds them all (its Stats counts them, and every Stats call
+  // so far, this one included).
   ClientOptions options;
   options.timeout_ms = 20000;
   auto client = Client::Connect(endpoint, options);
   ASSERT_TRUE(client.ok());
-  for (const auto deadline = Clock::now() + std::chrono::seconds(20);;) {
+  const auto deadline = Clock::now() + std::chrono::seconds(20);
+  for (uint64_t calls = 1;; ++calls) {
     auto stats = (*client)->Stats();
     ASSERT_TRUE(stats.ok()) << stats.status().ToString();
-    if (stats->requests() >= kRequests + 1u) break;
+    if (stats->requests() >= kRequests + calls) break;
     ASSERT_LT(Clock::now(), deadline);
   }
   server.Signal(SIGTERM);

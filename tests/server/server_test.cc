@@ -615,8 +615,7 @@ TEST(ServerFairnessTest, QueueWaitIsBounded) {
       }
       ++overloaded;
       EXPECT_EQ(reply.status(), v1::OVERLOADED) << reply.error();
-      EXPECT_NE(reply.error().find("limits.max_queue_wait_ms"), std::string::npos)
-          << reply.error();
+      EXPECT_NE(reply.error().find("limits.max_queue_wait_ms"), std::string::npos) << reply.error();
     });
   }
   EXPECT_GE(ok, 1);
@@ -693,12 +692,14 @@ TEST(ServerShutdownTest, InFlightRequestsAreAnsweredOnShutdown) {
   constexpr int kRequests = 6;
   zmq::socket_t socket =
       SendBurst(&context, server.endpoint, LocaliseFeatures(test::TourFeatures(6)), kRequests);
-  // Wait until the server has taken them all in (Stats counts requests), then stop it.
+  // Wait until the server has taken them all in (Stats counts requests, and every Stats
+  // call so far, this one included), then stop it.
   auto client = MustConnect(server.endpoint);
-  for (const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);;) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  for (uint64_t calls = 1;; ++calls) {
     auto stats = client->Stats();
     ASSERT_TRUE(stats.ok());
-    if (stats->requests() >= kRequests + 1u) break;
+    if (stats->requests() >= kRequests + calls) break;
     ASSERT_LT(std::chrono::steady_clock::now(), deadline);
   }
   server.server->Shutdown();
