@@ -2,6 +2,11 @@
 //   sceneloc-eval --map FILE --queries DIR [--ground-truth CSV] [--tolerance N]
 //                 [--baseline [--tour DIR]] [--negatives DIR] [--threads N]
 //                 [--config match.yaml] [--json OUT] [--reliability PNG] [--show]
+//                 [--sequence | --kidnap N [--seed S]]
+// With --sequence the queries in file order are one session (sequence_filter.h): the
+// table's "sceneloc" row is the session's answers, "single" the same frames answered one by
+// one. --kidnap N cuts that order into N shuffled segments and reports how many frames the
+// session needs to find the robot again after each jump.
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <cstdlib>
@@ -11,12 +16,14 @@
 
 #include "common/config/config.h"
 #include "common/map/map_io.h"
+#include "common/matching/sequence_filter.h"
 #include "common/training/trainer.h"
 #include "common/util/image_folder.h"
 #include "common/util/timer.h"
 #include "tools/eval/evaluation.h"
 #include "tools/eval/reliability_plot.h"
 #include "tools/eval/report_json.h"
+#include "tools/eval/sequence_eval.h"
 
 namespace {
 
@@ -36,6 +43,9 @@ struct Args {
   int tolerance = 2;
   bool with_baseline = false;
   bool show = false;
+  bool sequence = false;
+  int kidnap = 0;
+  uint32_t seed = 1;
   int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
 };
 
@@ -129,6 +139,7 @@ nlohmann::json QueryJson(const sl::QueryOutcome& o, bool with_baseline) {
                       {"keypoints", o.keypoints},
                       {"descriptor_matches", o.descriptor_matches},
                       {"location_scores", o.location_scores},
+                      {"in_map", o.in_map},
                       {"candidates", nlohmann::json::array()}};
   if (with_baseline) {
     q["baseline_predicted"] = o.baseline.predicted;
@@ -150,9 +161,37 @@ nlohmann::json QueryJson(const sl::QueryOutcome& o, bool with_baseline) {
   return q;
 }
 
+// What a session run adds: the single-frame figures of the same frames, the filter's time,
+// and for a kidnap the frames to find the robot again after each jump.
+struct SessionReport {
+  MethodSummary single;
+  const sl::SequenceRun* run = nullptr;
+  std::vector<sl::QueryOutcome> single_outcomes;
+  int kidnap = 0;
+};
+
+nlohmann::json RelocalisationJson(const std::vector<int>& frames) {
+  std::vector<double> values(frames.begin(), frames.end());
+  const Percentiles p = sl::ComputePercentiles(values);
+  return {{"per_jump", frames},
+          {"median", p.median},
+          {"max", frames.empty() ? 0 : *std::max_element(frames.begin(), frames.end())}};
+}
+
+nlohmann::json SessionJson(const SessionReport& r) {
+  nlohmann::json j = {{"single_frame", MethodJson(r.single)},
+                      {"filter_ms_median", r.run->filter_ms_median},
+                      {"kidnap_segments", r.kidnap}};
+  if (r.kidnap > 1) {
+    j["frames_to_correct"] = RelocalisationJson(r.run->relocalisation.to_correct);
+    j["frames_to_localised"] = RelocalisationJson(r.run->relocalisation.to_localised);
+  }
+  return j;
+}
+
 nlohmann::json ReportJson(const EvalSummary& s, const std::vector<sl::QueryOutcome>& out,
                           double load_ms, const sl::Map& map, const sl::MatchOptions& options,
-                          const Negatives* negatives) {
+                          const Negatives* negatives, const SessionReport* session) {
   nlohmann::json j = MethodJson(s.ours);
   j["queries"] = s.queries;
   j["confidence_model"] = sl::ConfidenceModelName(
@@ -175,8 +214,16 @@ nlohmann::json ReportJson(const EvalSummary& s, const std::vector<sl::QueryOutco
                       {"accepted", negatives->accepted},
                       {"max_confidence", negatives->max_confidence}};
   }
+  if (session != nullptr) j["session"] = SessionJson(*session);
   j["per_query"] = nlohmann::json::array();
-  for (const auto& o : out) j["per_query"].push_back(QueryJson(o, s.has_baseline));
+  for (size_t q = 0; q < out.size(); ++q) {
+    nlohmann::json query = QueryJson(out[q], s.has_baseline);
+    if (session != nullptr) {
+      query["single_predicted"] = session->single_outcomes[q].ours.predicted;
+      query["single_confidence"] = session->single_outcomes[q].ours.confidence;
+    }
+    j["per_query"].push_back(std::move(query));
+  }
   return j;
 }
 
@@ -209,8 +256,17 @@ void PrintAnswers(const std::vector<sl::QueryOutcome>& outcomes,
   }
 }
 
+void PrintRelocalisation(const char* what, const std::vector<int>& frames) {
+  if (frames.empty()) return;
+  std::vector<double> values(frames.begin(), frames.end());
+  std::printf("  frames to %s after a jump: median %.1f, max %d, over %zu jumps\n", what,
+              sl::ComputePercentiles(values).median,
+              *std::max_element(frames.begin(), frames.end()), frames.size());
+}
+
 void PrintReport(const Args& args, const EvalSummary& s, const sl::Map& map, double load_ms,
-                 const sl::MatchOptions& options, const Negatives* negatives) {
+                 const sl::MatchOptions& options, const Negatives* negatives,
+                 const SessionReport* session) {
   std::printf("map %s: %d locations, %d landmarks, %.1f MB in memory, loaded in %.1f ms\n",
               args.map_path.c_str(), map.num_images(), map.num_landmarks(),
               static_cast<double>(map.MemoryBytes()) / 1e6, load_ms);
@@ -218,6 +274,7 @@ void PrintReport(const Args& args, const EvalSummary& s, const sl::Map& map, dou
               args.threads);
   std::printf("method     exact   ±1     ±2     ±3     confidence  match ms (median  p90)\n");
   PrintMethod("sceneloc", s.ours, args.tolerance);
+  if (session != nullptr) PrintMethod("single", session->single, args.tolerance);
   if (args.with_baseline) {
     PrintMethod("baseline", s.baseline, args.tolerance);
     PrintMethod("+ransac", s.reranked, args.tolerance);
@@ -229,6 +286,7 @@ void PrintReport(const Args& args, const EvalSummary& s, const sl::Map& map, dou
       sl::ConfidenceModelName(model), map.options.tolerance, options.min_confidence);
   std::printf("method     PR-AUC  R@100P  ECE (floor)     correct accepted  precision\n");
   PrintConfidence("sceneloc", s.ours);
+  if (session != nullptr) PrintConfidence("single", session->single);
   if (args.with_baseline) {
     PrintConfidence("baseline", s.baseline);
     PrintConfidence("+ransac", s.reranked);
@@ -238,6 +296,17 @@ void PrintReport(const Args& args, const EvalSummary& s, const sl::Map& map, dou
                 negatives->frames, args.negatives_dir.c_str(), negatives->accepted,
                 100.0 * negatives->accepted / std::max<size_t>(1, negatives->frames),
                 negatives->max_confidence);
+  }
+  if (session != nullptr) {
+    const sl::SequenceFilter filter(map, options.sequence);
+    std::printf(
+        "session: the queries in %s as one session (sceneloc row; single = the same frames one "
+        "by one); motion band -%d..+%d, filter %.3f ms per frame\n",
+        session->kidnap > 1 ? (std::to_string(session->kidnap) + " shuffled segments").c_str()
+                            : "file order",
+        filter.max_backward(), filter.max_forward(), session->run->filter_ms_median);
+    PrintRelocalisation("a correct answer", session->run->relocalisation.to_correct);
+    PrintRelocalisation("a correct LOCALISED answer", session->run->relocalisation.to_localised);
   }
   std::printf("extract ms per query: median %.1f, p90 %.1f\n", s.extract_ms.median,
               s.extract_ms.p90);
@@ -296,13 +365,26 @@ int Run(const Args& args) {
     if (!n.ok()) return Fail("negatives: " + n.status().message());
     negatives = *n;
   }
-  const EvalSummary s =
-      sl::Summarise(outcomes, args.with_baseline, {map->options.tolerance, options.min_confidence});
-  if (args.show) PrintAnswers(outcomes, map->image_names, args.tolerance, options.min_confidence);
-  PrintReport(args, s, *map, load_ms, options, negatives ? &*negatives : nullptr);
+  const sl::Judging judging{map->options.tolerance, options.min_confidence};
+  std::optional<sl::SequenceRun> run;
+  std::optional<SessionReport> session;
+  if (args.sequence || args.kidnap > 1) {
+    const std::vector<int> order = sl::KidnapOrder(outcomes.size(), args.kidnap, args.seed);
+    run = sl::RunSequence(outcomes, *map, options.sequence, order);
+    session = SessionReport{sl::SummariseMethod(outcomes, sl::Method::kOurs, judging), &*run,
+                            outcomes, args.kidnap};
+    for (size_t q = 0; q < outcomes.size(); ++q) outcomes[q].ours = run->filtered[q].ours;
+  }
+  const sl::Judging shown{map->options.tolerance,
+                          session ? options.sequence.min_confidence : options.min_confidence};
+  const EvalSummary s = sl::Summarise(outcomes, args.with_baseline, shown);
+  if (args.show) PrintAnswers(outcomes, map->image_names, args.tolerance, shown.threshold);
+  const SessionReport* session_report = session ? &*session : nullptr;
+  PrintReport(args, s, *map, load_ms, options, negatives ? &*negatives : nullptr, session_report);
   if (!args.json_path.empty()) {
     std::ofstream out(args.json_path);
-    out << ReportJson(s, outcomes, load_ms, *map, options, negatives ? &*negatives : nullptr)
+    out << ReportJson(s, outcomes, load_ms, *map, options, negatives ? &*negatives : nullptr,
+                      session_report)
                .dump(2)
         << "\n";
     if (!out) return Fail("cannot write '" + args.json_path + "'");
@@ -336,6 +418,13 @@ int main(int argc, char** argv) {
   app.add_option("--json", args.json_path, "write the full report as JSON");
   app.add_option("--reliability", args.reliability_png, "write a reliability diagram (PNG)");
   app.add_flag("--show", args.show, "print every query's answer");
+  app.add_flag("--sequence", args.sequence,
+               "the queries in file order are one session: filtered answers beside single-frame");
+  app.add_option("--kidnap", args.kidnap,
+                 "cut the query order into N shuffled segments (a session; frames to find the "
+                 "robot again after each jump)")
+      ->check(CLI::Range(2, 100000));
+  app.add_option("--seed", args.seed, "shuffle seed of --kidnap");
   CLI11_PARSE(app, argc, argv);
   return Run(args);
 }

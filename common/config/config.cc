@@ -61,6 +61,18 @@ SettingTable MatchSettingTable(MatchOptions* o) {
       {"matching", "confidence_model", &o->confidence_model, 0, 0},
       {"matching", "min_confidence", &o->min_confidence, 0, 1},
       {"matching", "top_k", &o->top_k, 1, 1000},
+      {"sequence", "max_forward", &o->sequence.max_forward, -1, 1000, "", "sequence-max-forward"},
+      {"sequence", "max_backward", &o->sequence.max_backward, -1, 1000, "",
+       "sequence-max-backward"},
+      {"sequence", "backward_weight", &o->sequence.backward_weight, 0, 1, "",
+       "sequence-backward-weight"},
+      {"sequence", "jump", &o->sequence.jump, 0, 1, "", "sequence-jump"},
+      {"sequence", "leave", &o->sequence.leave, 0, 1, "", "sequence-leave"},
+      {"sequence", "enter", &o->sequence.enter, 0, 1, "", "sequence-enter"},
+      {"sequence", "evidence_weight", &o->sequence.evidence_weight, 1e-6, 1, "",
+       "sequence-evidence-weight"},
+      {"sequence", "min_confidence", &o->sequence.min_confidence, 0, 1, "",
+       "sequence-min-confidence"},
   };
 }
 

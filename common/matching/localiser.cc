@@ -54,6 +54,7 @@ Status MatchOptions::Validate() const {
   if (!(size_exponent >= 0.0 && size_exponent <= 2.0)) {
     return InvalidArgument("size_exponent must be in [0, 2]");
   }
+  if (Status s = sequence.Validate(); !s.ok()) return InvalidArgument("sequence." + s.message());
   return Status::Ok();
 }
 

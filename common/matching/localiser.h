@@ -21,6 +21,7 @@
 #include "common/features/feature_set.h"
 #include "common/map/map.h"
 #include "common/matching/confidence.h"
+#include "common/matching/sequence_options.h"
 #include "common/util/status.h"
 #include "common/util/thread_pool.h"
 
@@ -84,6 +85,8 @@ struct MatchOptions {
   double min_confidence = 0.8;
   // How many ranked locations a result carries.
   int top_k = 5;
+  // The filter of requests that name a session (sequence_filter.h).
+  SequenceOptions sequence;
   // Not a setting: when the call must finish (the server sets it from the request's
   // arrival and limits.max_request_ms). Checked between stages; past it, Localise returns
   // DeadlineExceeded naming the stage and the time each stage took.

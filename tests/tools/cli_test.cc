@@ -85,6 +85,33 @@ TEST_F(CliTest, TrainThenEval) {
   }
 }
 
+// eval --sequence: the test pass in file order as one session, the single-frame row beside;
+// --kidnap: shuffled segments, frames to find the robot again per jump, in the JSON too.
+TEST_F(CliTest, EvalSequenceAndKidnap) {
+  const std::string map = (dir_ / "seq.scnl").string();
+  RunResult r = RunCommand(Train((dir_ / "tour").string(), map, "--threads 2"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string eval = std::string(SCENELOC_EVAL_BIN) + " --map '" + map + "' --queries '" +
+                           (dir_ / "test").string() + "' ";
+  r = RunCommand(eval + "--sequence");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("\nsingle "), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("as one session"), std::string::npos) << r.output;
+  const std::string json = (dir_ / "kidnap.json").string();
+  r = RunCommand(eval + "--kidnap 3 --seed 2 --json '" + json + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("frames to a correct answer after a jump"), std::string::npos)
+      << r.output;
+  std::ifstream in(json);
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  for (const char* key : {"\"session\"", "\"single_frame\"", "\"frames_to_correct\"",
+                          "\"frames_to_localised\"", "\"single_predicted\""}) {
+    EXPECT_NE(text.find(key), std::string::npos) << key;
+  }
+  r = RunCommand(eval + "--kidnap 1");
+  EXPECT_NE(r.exit_code, 0) << r.output;  // one segment is no kidnap
+}
+
 // A missing tour folder, an empty one and a one-image tour.
 TEST_F(CliTest, BadTourFolders) {
   const std::string out = (dir_ / "never.scnl").string();

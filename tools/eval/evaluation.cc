@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "common/matching/baseline.h"
+#include "common/matching/sequence_filter.h"
 #include "common/util/thread_pool.h"
 #include "common/util/timer.h"
 
@@ -158,6 +159,7 @@ Status RunOurs(const std::vector<FeatureSet>& queries, const Map& map, const Mat
     o.stages = r.timings;
     o.candidates = r.candidates;
     o.location_scores = r.location_scores;
+    o.in_map = EvidenceOf(r, map).in_map;
     o.keypoints = queries[q].size();
   }
   return Status::Ok();

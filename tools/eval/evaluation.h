@@ -43,6 +43,7 @@ struct QueryOutcome {
   StageTimings stages;                        // ours, per matching stage
   std::vector<CandidateEvidence> candidates;  // ours, the verified candidates
   std::vector<float> location_scores;         // ours, every location's fused evidence
+  double in_map = -1;                         // ours, P(in the map); -1 unknown
   int keypoints = 0;                          // the query's feature count
   MethodOutcome baseline;                     // FLANN votes (when the baselines ran)
   MethodOutcome reranked;                     // the same, top 10 re-ranked by RANSAC inliers

@@ -1,0 +1,32 @@
+// The settings of the sequence filter (sequence_filter.h), a section of the matching
+// settings (MatchOptions::sequence; `sequence:` in configs/match.yaml).
+#pragma once
+
+#include "common/util/status.h"
+
+namespace sceneloc {
+
+struct SequenceOptions {
+  // Motion band in tour locations per frame: how far ahead and behind the robot may move
+  // between two frames. -1 = from the map (SequenceFilter::MotionBand): the median number
+  // of tour frames a landmark is seen in, i.e. how many frames apart views still overlap.
+  int max_forward = -1;
+  int max_backward = -1;
+  // Weight of each backward step against each forward one (robots mostly move forward).
+  double backward_weight = 0.25;
+  // The kidnap floor: per frame, this share of the in-map mass is spread over every
+  // location, so a robot carried elsewhere is found again within a few frames.
+  double jump = 0.02;
+  // Per frame, the probability of leaving the route (in-map -> off-map) and of coming back
+  // onto it anywhere (off-map -> in-map).
+  double leave = 0.02;
+  double enter = 0.2;
+  // The exponent on each frame's likelihood (0, 1]: 1 treats frames as independent.
+  double evidence_weight = 0.5;
+  // A filtered answer whose mass within the tolerance is below this is UNKNOWN.
+  double min_confidence = 0.8;
+
+  Status Validate() const;
+};
+
+}  // namespace sceneloc

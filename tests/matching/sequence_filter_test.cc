@@ -1,0 +1,196 @@
+#include "common/matching/sequence_filter.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "tests/support/test_map.h"
+
+namespace sceneloc {
+namespace {
+
+constexpr int kLocations = 200;
+
+class SequenceFilterTest : public ::testing::Test {
+ protected:
+  SequenceFilterTest() : map_(test::MakeRandomMap(kLocations, 400, 7)), rng_(11) {
+    options_.max_forward = 3;
+    options_.max_backward = 2;
+  }
+
+  // Single-frame evidence of a frame at `where`: a peak of `height` robust-z units there,
+  // its neighbours close behind (they share most landmarks), noise everywhere, and with
+  // `decoy` >= 0 a look-alike at `decoy` that beats the true place (a wrong single answer).
+  FrameEvidence Frame(int where, double height = 4, int decoy = -1, double in_map = 0.95) {
+    std::normal_distribution<float> noise(0, 0.4f);
+    FrameEvidence e;
+    e.in_map = in_map;
+    e.location_scores.resize(kLocations);
+    for (int l = 0; l < kLocations; ++l) {
+      const double d = l - where;
+      e.location_scores[l] = static_cast<float>(height * std::exp(-d * d / 2)) + noise(rng_);
+    }
+    if (decoy >= 0) e.location_scores[decoy] = static_cast<float>(height + 1);
+    return e;
+  }
+
+  // An off-route frame: nothing stands out, and the holistic check says "not here".
+  FrameEvidence Elsewhere() { return Frame(0, 0, -1, 0.02); }
+
+  SequenceFilter Filter() const { return SequenceFilter(map_, options_); }
+
+  Map map_;
+  std::mt19937 rng_;
+  SequenceOptions options_;
+};
+
+// A steady walk with every third single-frame answer fooled by a distant look-alike: once
+// the session has seen a few frames, the filtered answer stays on the true place.
+TEST_F(SequenceFilterTest, SteadyWalkIgnoresLookAlikes) {
+  const SequenceFilter filter = Filter();
+  SequenceState state;
+  for (int t = 0; t < 60; ++t) {
+    const int where = 20 + t;
+    const int decoy = t % 3 == 2 ? (where + 90) % kLocations : -1;
+    const SequenceAnswer a = filter.Update(Frame(where, 4, decoy), &state);
+    EXPECT_EQ(a.frames, static_cast<uint32_t>(t + 1));
+    if (t < 3) continue;
+    EXPECT_LE(std::abs(a.location - where), 2) << "frame " << t;
+    EXPECT_EQ(a.decision, Decision::kLocalised) << "frame " << t;
+  }
+}
+
+// A robot standing still: the answer stays put and its probability stays high.
+TEST_F(SequenceFilterTest, StandingStill) {
+  const SequenceFilter filter = Filter();
+  SequenceState state;
+  SequenceAnswer a;
+  for (int t = 0; t < 20; ++t) a = filter.Update(Frame(100), &state);
+  EXPECT_LE(std::abs(a.location - 100), 1);
+  EXPECT_GT(a.probability, 0.95);
+}
+
+// Walking backwards along the route is followed too (within the backward band).
+TEST_F(SequenceFilterTest, WalkingBackwards) {
+  const SequenceFilter filter = Filter();
+  SequenceState state;
+  for (int t = 0; t < 40; ++t) {
+    const int where = 150 - t;
+    const SequenceAnswer a = filter.Update(Frame(where, 4, t % 4 == 3 ? 10 : -1), &state);
+    if (t >= 3) EXPECT_LE(std::abs(a.location - where), 2) << "frame " << t;
+  }
+}
+
+// The kidnapped robot: carried from location 40 to 160, it is found again within a few
+// frames.
+TEST_F(SequenceFilterTest, KidnappedRobotIsFoundAgain) {
+  const SequenceFilter filter = Filter();
+  SequenceState state;
+  for (int t = 0; t < 30; ++t) filter.Update(Frame(10 + t), &state);
+  int found_after = -1;
+  for (int t = 0; t < 20; ++t) {
+    const SequenceAnswer a = filter.Update(Frame(160 + t), &state);
+    if (std::abs(a.location - (160 + t)) <= 2 && a.decision == Decision::kLocalised) {
+      found_after = t;
+      break;
+    }
+  }
+  ASSERT_GE(found_after, 0) << "never found again";
+  EXPECT_LE(found_after, 5);
+}
+
+// Frames without evidence (no features): the session predicts along its motion band, keeps
+// its place, counts the frames, and becomes less sure.
+TEST_F(SequenceFilterTest, FramesWithoutEvidencePredictOnly) {
+  const SequenceFilter filter = Filter();
+  SequenceState state;
+  SequenceAnswer before;
+  for (int t = 0; t < 10; ++t) before = filter.Update(Frame(50 + t), &state);
+  SequenceAnswer a;
+  for (int t = 0; t < 3; ++t) a = filter.Update(FrameEvidence{}, &state);
+  EXPECT_EQ(a.frames, 13u);
+  EXPECT_GE(a.location, before.location);  // the band leans forward
+  EXPECT_LE(a.location, before.location + 3 * options_.max_forward);
+  EXPECT_LT(a.probability, before.probability);
+  // Evidence again: back on track at once.
+  a = filter.Update(Frame(62), &state);
+  EXPECT_LE(std::abs(a.location - 62), 2);
+}
+
+// Frames from off the route come back UNKNOWN with the belief on "off the map"; frames of
+// the route again are LOCALISED again.
+TEST_F(SequenceFilterTest, OffTheMapAndBack) {
+  const SequenceFilter filter = Filter();
+  SequenceState state;
+  for (int t = 0; t < 10; ++t) filter.Update(Frame(30 + t), &state);
+  SequenceAnswer a;
+  for (int t = 0; t < 8; ++t) a = filter.Update(Elsewhere(), &state);
+  EXPECT_EQ(a.decision, Decision::kUnknown);
+  EXPECT_GT(a.off_map, 0.8);
+  for (int t = 0; t < 6; ++t) a = filter.Update(Frame(120 + t), &state);
+  EXPECT_EQ(a.decision, Decision::kLocalised);
+  EXPECT_LE(std::abs(a.location - 125), 2);
+}
+
+// A first frame of an off-route place is UNKNOWN: a session does not start out sure.
+TEST_F(SequenceFilterTest, FirstFrameElsewhereIsUnknown) {
+  SequenceState state;
+  EXPECT_EQ(Filter().Update(Elsewhere(), &state).decision, Decision::kUnknown);
+}
+
+// A state of another size (a state of another map) is restarted, never read.
+TEST_F(SequenceFilterTest, ForeignStateRestarts) {
+  SequenceState state;
+  state.belief.assign(17, 1.0f / 17);
+  state.frames = 99;
+  const SequenceAnswer a = Filter().Update(Frame(70), &state);
+  EXPECT_EQ(a.frames, 1u);
+  EXPECT_EQ(state.belief.size(), static_cast<size_t>(kLocations) + 1);
+  EXPECT_LE(std::abs(a.location - 70), 2);
+}
+
+// The belief stays a distribution however long the session runs.
+TEST_F(SequenceFilterTest, BeliefStaysNormalised) {
+  const SequenceFilter filter = Filter();
+  SequenceState state;
+  for (int t = 0; t < 300; ++t) filter.Update(Frame((t * 7) % kLocations, 8), &state);
+  double total = 0;
+  for (const float b : state.belief) {
+    ASSERT_TRUE(std::isfinite(b));
+    ASSERT_GE(b, 0.0f);
+    total += b;
+  }
+  EXPECT_NEAR(total, 1.0, 1e-4);
+}
+
+// The motion band the map suggests: the median track length, at least 2 ahead, 1 behind.
+TEST_F(SequenceFilterTest, MotionBandFromTheMap) {
+  const int band = SequenceFilter::MotionBand(map_);
+  EXPECT_GE(band, 2);
+  EXPECT_LE(band, 5);  // MakeRandomMap tracks span 2..5 images
+  SequenceOptions automatic;
+  const SequenceFilter filter(map_, automatic);
+  EXPECT_EQ(filter.max_forward(), band);
+  EXPECT_EQ(filter.max_backward(), std::max(1, band / 2));
+}
+
+// Settings out of range are refused with the setting's name.
+TEST(SequenceOptionsTest, ValidateNamesTheSetting) {
+  EXPECT_TRUE(SequenceOptions{}.Validate().ok());
+  SequenceOptions o;
+  o.evidence_weight = 0;
+  EXPECT_NE(o.Validate().message().find("evidence_weight"), std::string::npos);
+  o = {};
+  o.jump = 1.5;
+  EXPECT_NE(o.Validate().message().find("jump"), std::string::npos);
+  o = {};
+  o.max_forward = -2;
+  EXPECT_NE(o.Validate().message().find("max_forward"), std::string::npos);
+  o = {};
+  o.leave = std::nan("");
+  EXPECT_FALSE(o.Validate().ok());
+}
+
+}  // namespace
+}  // namespace sceneloc
