@@ -75,6 +75,8 @@ nlohmann::json ToJson(const BenchArgs& args, const LoadResult& r) {
           {"latency_ms", Percentiles(r.latency_ms)},
           {"server_ms", Percentiles(r.server_ms)},
           {"errors", r.errors},
+          {"sessions", args.sessions},
+          {"session_localised", r.session_localised},
           {"map_versions", versions},
           {"map_checksums", checksums}};
 }
@@ -90,6 +92,10 @@ void PrintSummary(const BenchArgs& args, const LoadResult& r) {
               Quantile(r.latency_ms, 0.99), Quantile(r.latency_ms, 1.0));
   std::printf("server ms   p50 %.2f  p90 %.2f  p99 %.2f\n", Quantile(r.server_ms, 0.5),
               Quantile(r.server_ms, 0.9), Quantile(r.server_ms, 0.99));
+  if (args.sessions) {
+    std::printf("sessions    one per client, in folder order: %lld of %lld answers LOCALISED\n",
+                static_cast<long long>(r.session_localised), static_cast<long long>(r.ok));
+  }
   std::printf("errors     ");
   if (r.errors.empty()) std::printf(" none");
   for (const auto& [kind, n] : r.errors)
@@ -112,6 +118,7 @@ int RunBench(const BenchArgs& args) {
   options.duration_s = args.duration_s;
   options.timeout_ms = args.timeout_ms;
   options.top_k = args.top_k;
+  options.sessions = args.sessions;
   options.key_file = args.key_file;
   options.server_key_file = args.server_key_file;
   if (const Status valid = options.Validate(); !valid.ok()) {

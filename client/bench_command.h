@@ -6,7 +6,8 @@
 //    "duration_s": x, "mode": "jpeg"|"features",
 //    "latency_ms": {"p50": t, "p90": t, "p99": t, "max": t},      // successful requests
 //    "server_ms": {"p50": t, "p90": t, "p99": t, "max": t},       // inside the server
-//    "errors": {"KIND": n}, "map_versions": [generation, ...],
+//    "errors": {"KIND": n}, "sessions": bool, "session_localised": n,
+//    "map_versions": [generation, ...],
 //    "map_checksums": {"generation": "crc32 hex"}}
 #pragma once
 
@@ -23,6 +24,7 @@ struct BenchArgs {
   int timeout_ms = 10000;
   int top_k = 0;
   bool features = false;
+  bool sessions = false;  // one session per client thread (LoadOptions::sessions)
   // Extractor settings for --features (client_extractor.h), as `sceneloc extract` takes
   // them: the map file's own settings and frame, else the training settings file (config)
   // with working_size over it when > 0, else the defaults.

@@ -31,6 +31,13 @@ struct LocaliseOptions {
   std::optional<float> min_confidence;
   // How a feature set's descriptors travel (feature-set calls only).
   DescriptorEncoding encoding = DescriptorEncoding::kFloat32;
+  // The robot's session (proto LocaliseRequest.session): calls naming one session are
+  // filtered together on the server and the reply's session() holds the filtered answer.
+  // Empty = a frame on its own. Send a session's frames one call after another. A call that
+  // is retried after a timeout may add its frame to the session twice (a small bias).
+  std::string session;
+  // Forget the session's past before this frame.
+  bool reset_session = false;
 };
 
 struct ClientOptions {

@@ -40,16 +40,26 @@ void Record(const StatusOr<v1::Reply>& reply, double ms, ClientTally* tally) {
   ++r.ok;
   r.latency_ms.push_back(ms);
   r.server_ms.push_back(reply->localise().timings().total_ms());
+  if (reply->localise().has_session() && reply->localise().session().decision() == v1::LOCALISED) {
+    ++r.session_localised;
+  }
   const v1::MapVersion& version = reply->localise().map();
   r.map_versions[version.generation()] = version.checksum();
 }
 
 // One client: requests back to back, starting at `first`, until `deadline`.
+// `session`: the session every request names (empty = none), reset on the first.
 void RunClient(Client* client, const std::vector<v1::Request>& requests, size_t first,
-               Clock::time_point deadline, ClientTally* tally) {
+               const std::string& session, Clock::time_point deadline, ClientTally* tally) {
   int overloaded_in_a_row = 0;
+  bool first_request = true;
   for (size_t i = first; Clock::now() < deadline; i = (i + 1) % requests.size()) {
     v1::Request request = requests[i];  // Call takes it by value; copy before the clock
+    if (!session.empty()) {
+      request.mutable_localise()->set_session(session);
+      request.mutable_localise()->set_reset_session(first_request);
+      first_request = false;
+    }
     const auto start = Clock::now();
     const StatusOr<v1::Reply> reply = client->Call(std::move(request));
     const double ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
@@ -69,6 +79,7 @@ void RunClient(Client* client, const std::vector<v1::Request>& requests, size_t 
 void Merge(const LoadResult& from, LoadResult* into) {
   into->requests += from.requests;
   into->ok += from.ok;
+  into->session_localised += from.session_localised;
   into->latency_ms.insert(into->latency_ms.end(), from.latency_ms.begin(), from.latency_ms.end());
   into->server_ms.insert(into->server_ms.end(), from.server_ms.begin(), from.server_ms.end());
   for (const auto& [kind, n] : from.errors) into->errors[kind] += n;
@@ -88,6 +99,7 @@ Status LoadOptions::Validate() const {
   }
   if (timeout_ms < 1) return InvalidArgument("timeout_ms must be >= 1");
   if (top_k < 0) return InvalidArgument("top_k must be >= 0");
+  if (sessions) SCENELOC_RETURN_IF_ERROR(CheckSessionName(session_prefix + "-0"));
   return Status::Ok();
 }
 
@@ -133,7 +145,9 @@ StatusOr<LoadResult> RunLoad(const LoadOptions& options, const std::vector<LoadQ
   std::vector<std::thread> threads;
   for (size_t c = 0; c < clients.size(); ++c) {
     const size_t first = c * requests.size() / clients.size();
-    threads.emplace_back(RunClient, clients[c].get(), std::cref(requests), first, deadline,
+    const std::string session =
+        options.sessions ? options.session_prefix + "-" + std::to_string(c) : std::string();
+    threads.emplace_back(RunClient, clients[c].get(), std::cref(requests), first, session, deadline,
                          &tallies[c]);
   }
   LoadResult result;

@@ -36,6 +36,10 @@ struct LoadOptions {
   int timeout_ms = 10000;
   // Ranked locations asked for (0 = the server's default).
   int top_k = 0;
+  // Each client thread is one robot's session (named "<session_prefix>-<thread>", reset on
+  // its first request) going through the queries in order from its starting point.
+  bool sessions = false;
+  std::string session_prefix = "bench";
   // CURVE key files (ClientOptions::key_file, server_key_file); empty: no CURVE.
   std::string key_file;
   std::string server_key_file;
@@ -65,6 +69,8 @@ struct LoadResult {
   // Failed requests by kind: the reply's status name (NOT_FOUND, OVERLOADED, ...), or
   // NO_REPLY (timed out / no connection) and BAD_REPLY (unparsable or wrong kind).
   std::map<std::string, int64_t> errors;
+  // With sessions: successful replies whose session answer was LOCALISED.
+  int64_t session_localised = 0;
   // Map generations (and the checksum of each) seen in successful replies.
   std::map<uint64_t, uint32_t> map_versions;
 

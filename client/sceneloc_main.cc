@@ -1,10 +1,12 @@
 // sceneloc: the command-line client.
 //   sceneloc localise --server EP --map NAME IMAGE...           one answer line per image
+//   sceneloc localise ... --session NAME IMAGE...  the images in order as one robot's session
 //   sceneloc localise --server EP --map NAME --features FILE...  feature sets instead
 //   sceneloc extract IMAGE --out FILE [--config train.yaml] [--image-scale S] [--uint8]
 //   sceneloc maps --server EP          sceneloc reload --server EP --map NAME
 //   sceneloc stats --server EP
-//   sceneloc bench --server EP --map NAME --clients N --duration S [--features] [--json OUT] DIR
+//   sceneloc bench --server EP --map NAME --clients N --duration S [--features] [--sessions]
+//                  [--json OUT] DIR
 //   sceneloc keygen NAME [--dir DIR] [--force]   a CURVE key pair: NAME.key and NAME.pub
 // Every command that talks to a server takes --key FILE --server-key FILE when the server
 // runs with auth.enabled (README "Authenticated clients").
@@ -36,6 +38,20 @@ StatusOr<std::string> ReadFile(const std::string& path) {
   return bytes.str();
 }
 
+// Why a session started again at this frame, for the answer line ("" when it continued).
+const char* StartNote(v1::SessionStart start) {
+  switch (start) {
+    case v1::NEW:
+      return "\t(new session)";
+    case v1::RESET:
+      return "\t(session reset)";
+    case v1::MAP_RELOADED:
+      return "\t(map reloaded: session restarted)";
+    default:
+      return "";
+  }
+}
+
 void PrintAnswer(const std::string& query, const v1::LocaliseReply& r) {
   if (r.locations().empty()) {
     std::printf("%s\tno match\tmap %s@%llu\n", query.c_str(), r.map().name().c_str(),
@@ -48,6 +64,13 @@ void PrintAnswer(const std::string& query, const v1::LocaliseReply& r) {
               r.decision() == v1::LOCALISED ? "LOCALISED" : "UNKNOWN", r.confidence(),
               best.likelihood(), r.map().name().c_str(),
               static_cast<unsigned long long>(r.map().generation()), r.timings().total_ms());
+  if (r.has_session()) {
+    const v1::SessionAnswer& s = r.session();
+    std::printf("%s\tsession %s frame %u\t%d\t%s\t%s\tprobability %.3f\toff-map %.3f%s\n",
+                query.c_str(), s.name().c_str(), s.frames(), s.location(), s.image_name().c_str(),
+                s.decision() == v1::LOCALISED ? "LOCALISED" : "UNKNOWN", s.probability(),
+                s.off_map(), StartNote(s.start()));
+  }
 }
 
 struct KeyFiles {
@@ -85,7 +108,7 @@ int RunKeygen(const std::string& name, const std::string& dir, bool force) {
 // Localises each input (a JPEG or a feature-set file); returns the exit status.
 int RunLocalise(sceneloc::Client* client, const std::string& map,
                 const std::vector<std::string>& inputs, bool features,
-                const sceneloc::LocaliseOptions& options) {
+                sceneloc::LocaliseOptions options) {
   int status = 0;
   for (const std::string& input : inputs) {
     auto bytes = ReadFile(input);
@@ -101,6 +124,8 @@ int RunLocalise(sceneloc::Client* client, const std::string& map,
       if (options.min_confidence) {
         request.mutable_localise()->set_min_confidence(*options.min_confidence);
       }
+      request.mutable_localise()->set_session(options.session);
+      request.mutable_localise()->set_reset_session(options.reset_session);
       if (!request.mutable_localise()->mutable_features()->ParseFromString(*bytes)) {
         std::fprintf(stderr, "sceneloc: '%s' is not a feature-set file\n", input.c_str());
         return 2;
@@ -112,6 +137,7 @@ int RunLocalise(sceneloc::Client* client, const std::string& map,
     } else {
       reply = client->Localise(map, *bytes, options);
     }
+    options.reset_session = false;  // --reset-session: before the first input only
     if (!reply.ok()) {
       std::printf("%s\terror\t%s\n", input.c_str(), reply.status().message().c_str());
       status = 1;
@@ -190,6 +216,11 @@ int main(int argc, char** argv) {
       ->add_option("--min-confidence", min_confidence,
                    "answers below this are UNKNOWN (default: the server's)")
       ->check(CLI::Range(0.0, 1.0));
+  localise->add_option("--session", localise_options.session,
+                       "send the inputs in order as one session (e.g. the robot's name); each "
+                       "answer adds the session's filtered one");
+  localise->add_flag("--reset-session", localise_options.reset_session,
+                     "with --session: forget the session's past before the first input");
   localise->add_option("--timeout-ms", timeout_ms, "per attempt");
   localise->add_option("inputs", inputs, "JPEG images, or feature-set files with --features")
       ->required();
@@ -235,6 +266,8 @@ int main(int argc, char** argv) {
                     "with --features: training settings whose extractor: section to use");
   bench->add_option("--working-size", bench_args.working_size,
                     "with --features: override extractor.working_size (long side, pixels)");
+  bench->add_flag("--sessions", bench_args.sessions,
+                  "each client thread is one robot's session through the folder in order");
   bench->add_option("--json", bench_args.json_out, "write the results as JSON to this file");
   bench->add_option("--top-k", bench_args.top_k, "ranked locations wanted (0 = server default)");
   bench->add_option("--timeout-ms", bench_args.timeout_ms, "per request; no retries")

@@ -184,4 +184,22 @@ v1::StatusCode ToWireCode(StatusCode code) {
   return v1::INTERNAL;
 }
 
+Status CheckSessionName(const std::string& name) {
+  if (name.empty()) return InvalidArgument("session name is empty");
+  if (name.size() > kMaxSessionName) {
+    return InvalidArgument("session name is " + std::to_string(name.size()) + " bytes; at most " +
+                           std::to_string(kMaxSessionName));
+  }
+  for (size_t i = 0; i < name.size(); ++i) {
+    const unsigned char c = static_cast<unsigned char>(name[i]);
+    if (c < 0x20 || c > 0x7e) {
+      return InvalidArgument("session name holds a byte that is not printable ASCII (0x" +
+                             std::string(1, "0123456789abcdef"[c >> 4]) +
+                             std::string(1, "0123456789abcdef"[c & 15]) + " at offset " +
+                             std::to_string(i) + ")");
+    }
+  }
+  return Status::Ok();
+}
+
 }  // namespace sceneloc

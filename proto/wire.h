@@ -38,4 +38,9 @@ StatusOr<FeatureSet> DecodeFeatureSet(const v1::FeatureSet& wire, const FeatureS
 // The wire status for an engine status code (kOk -> OK).
 v1::StatusCode ToWireCode(StatusCode code);
 
+// Whether a session name (LocaliseRequest.session) is one a client may use:
+// 1..kMaxSessionName printable ASCII characters. InvalidArgument saying why otherwise.
+inline constexpr size_t kMaxSessionName = 128;
+Status CheckSessionName(const std::string& name);
+
 }  // namespace sceneloc

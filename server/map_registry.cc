@@ -128,6 +128,8 @@ StatusOr<std::shared_ptr<const LoadedMap>> MapRegistry::Load(const std::string& 
   loaded->loaded_at = std::chrono::system_clock::now();
   loaded->map = std::move(map).value();
   loaded->extractor = FeatureExtractor::Create(loaded->map.options.extractor);
+  loaded->sequence =
+      std::make_unique<const SequenceFilter>(loaded->map, options_.self_test.sequence);
 
   std::lock_guard<std::mutex> lock(mutex_);
   loaded->generation = ++generations_[name];

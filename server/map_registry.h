@@ -24,6 +24,7 @@
 #include "common/map/map.h"
 #include "common/map/map_io.h"
 #include "common/matching/localiser.h"
+#include "common/matching/sequence_filter.h"
 #include "common/util/status.h"
 
 namespace sceneloc {
@@ -41,6 +42,8 @@ struct LoadedMap {
   Map map;  // Validate()d and Finalize()d
   // Extracts query features exactly as the map's tour was extracted (its own settings).
   std::unique_ptr<FeatureExtractor> extractor;
+  // The filter of this map's sessions (the registry's matching settings, sequence:).
+  std::unique_ptr<const SequenceFilter> sequence;
 };
 
 class MapRegistry {

@@ -79,6 +79,20 @@ StatusOr<FeatureSet> ExtractJpeg(const std::string& jpeg, const LoadedMap& map,
   return features;
 }
 
+v1::SessionStart ToWireStart(SessionStart start) {
+  switch (start) {
+    case SessionStart::kContinued:
+      return v1::CONTINUED;
+    case SessionStart::kNew:
+      return v1::NEW;
+    case SessionStart::kReset:
+      return v1::RESET;
+    case SessionStart::kMapReloaded:
+      return v1::MAP_RELOADED;
+  }
+  return v1::NEW;
+}
+
 void FillResult(const LocaliseResult& result, const LoadedMap& map, const MatchOptions& match,
                 v1::LocaliseReply* reply) {
   for (const RankedLocation& r : result.ranked) {
@@ -127,7 +141,8 @@ RequestHandler::RequestHandler(const ServerOptions& options, MapRegistry* regist
       registry_(registry),
       pool_(pool),
       stats_(stats),
-      decode_budget_(std::make_unique<MemoryBudget>(options.limits.max_decode_bytes)) {}
+      decode_budget_(std::make_unique<MemoryBudget>(options.limits.max_decode_bytes)),
+      sessions_(std::make_unique<SessionStore>(options.sessions)) {}
 
 bool RequestHandler::IsCheap(const v1::Request& request) {
   return request.kind_case() == v1::Request::kStats ||
@@ -135,14 +150,14 @@ bool RequestHandler::IsCheap(const v1::Request& request) {
 }
 
 void RequestHandler::Handle(const v1::Request& request, Clock::time_point received,
-                            v1::Reply* reply) const {
+                            v1::Reply* reply, const std::string& client) const {
   reply->Clear();
   reply->set_request_id(request.request_id());
   Status status;
   try {
     switch (request.kind_case()) {
       case v1::Request::kLocalise:
-        status = HandleLocalise(request.localise(), received, reply->mutable_localise());
+        status = HandleLocalise(request.localise(), received, client, reply->mutable_localise());
         break;
       case v1::Request::kListMaps:
         HandleListMaps(reply->mutable_list_maps());
@@ -172,7 +187,8 @@ void RequestHandler::Handle(const v1::Request& request, Clock::time_point receiv
 }
 
 Status RequestHandler::HandleLocalise(const v1::LocaliseRequest& request,
-                                      Clock::time_point received, v1::LocaliseReply* reply) const {
+                                      Clock::time_point received, const std::string& client,
+                                      v1::LocaliseReply* reply) const {
   v1::Timings timings;
   timings.set_queue_ms(MsSince(received));
   if (request.top_k() < 0 || request.top_k() > options_.limits.max_top_k) {
@@ -183,6 +199,10 @@ Status RequestHandler::HandleLocalise(const v1::LocaliseRequest& request,
       !(request.min_confidence() >= 0.0f && request.min_confidence() <= 1.0f)) {
     return InvalidArgument("min_confidence must be in [0, 1], got " +
                            std::to_string(request.min_confidence()));
+  }
+  if (!request.session().empty()) SCENELOC_RETURN_IF_ERROR(CheckSessionName(request.session()));
+  if (request.session().empty() && request.reset_session()) {
+    return InvalidArgument("reset_session needs a session name");
   }
   // The one snapshot this request uses from here to its reply.
   const std::shared_ptr<const LoadedMap> map = registry_->Get(request.map());
@@ -223,6 +243,7 @@ Status RequestHandler::HandleLocalise(const v1::LocaliseRequest& request,
   }
   SCENELOC_ASSIGN_OR_RETURN(const LocaliseResult result, std::move(localised));
   FillResult(result, *map, match, reply);
+  if (!request.session().empty()) UpdateSession(request, client, *map, result, reply);
   reply->set_num_features(static_cast<uint32_t>(features->size()));
   v1::Timings* t = reply->mutable_timings();
   t->set_queue_ms(timings.queue_ms());
@@ -230,6 +251,26 @@ Status RequestHandler::HandleLocalise(const v1::LocaliseRequest& request,
   t->set_extract_ms(timings.extract_ms());
   t->set_total_ms(MsSince(received));
   return Status::Ok();
+}
+
+void RequestHandler::UpdateSession(const v1::LocaliseRequest& request, const std::string& client,
+                                   const LoadedMap& map, const LocaliseResult& result,
+                                   v1::LocaliseReply* reply) const {
+  const FrameEvidence evidence = EvidenceOf(result, map.map);
+  SequenceAnswer answer;
+  const SessionStart start = sessions_->Update(
+      client, map.name, request.session(), map.generation, request.reset_session(), Clock::now(),
+      [&](SequenceState* state) { answer = map.sequence->Update(evidence, state); });
+  v1::SessionAnswer* out = reply->mutable_session();
+  out->set_name(request.session());
+  out->set_location(answer.location);
+  out->set_image_name(map.map.image_names[answer.location]);
+  out->set_probability(static_cast<float>(answer.probability));
+  out->set_off_map(static_cast<float>(answer.off_map));
+  out->set_decision(answer.decision == Decision::kLocalised ? v1::LOCALISED : v1::UNKNOWN);
+  out->set_min_confidence(static_cast<float>(options_.matching.sequence.min_confidence));
+  out->set_frames(answer.frames);
+  out->set_start(ToWireStart(start));
 }
 
 Status RequestHandler::CheckReload(const v1::ReloadMapRequest& request) {
@@ -279,6 +320,11 @@ void RequestHandler::HandleStats(v1::StatsReply* reply) const {
   latency->set_p50(s.latency_p50_ms);
   latency->set_p90(s.latency_p90_ms);
   latency->set_p99(s.latency_p99_ms);
+  const SessionCounts sessions = sessions_->Counts();
+  reply->set_sessions(sessions.live);
+  reply->set_session_memory_bytes(sessions.memory_bytes);
+  reply->set_sessions_evicted(sessions.evicted);
+  reply->set_sessions_expired(sessions.expired);
   latency->set_max(s.latency_max_ms);
   reply->set_map_loads(registry_->loads());
   reply->set_map_load_failures(registry_->load_failures());

@@ -21,6 +21,7 @@
 #include "server/memory_budget.h"
 #include "server/server_options.h"
 #include "server/server_stats.h"
+#include "server/session_store.h"
 
 namespace sceneloc {
 
@@ -31,9 +32,10 @@ class RequestHandler {
   RequestHandler(const ServerOptions& options, MapRegistry* registry, ThreadPool* pool,
                  const ServerStats* stats);
 
-  // Fills `reply` (cleared first) for `request`, which arrived at `received`.
+  // Fills `reply` (cleared first) for `request`, which arrived at `received` from `client`
+  // (its key name with auth.enabled, else empty; sessions are kept per client).
   void Handle(const v1::Request& request, std::chrono::steady_clock::time_point received,
-              v1::Reply* reply) const;
+              v1::Reply* reply, const std::string& client = {}) const;
 
   // True for requests cheap enough to answer on the I/O thread (stats, list_maps), so a
   // health check is answered even when every worker is busy.
@@ -49,8 +51,12 @@ class RequestHandler {
 
  private:
   Status HandleLocalise(const v1::LocaliseRequest& request,
-                        std::chrono::steady_clock::time_point received,
+                        std::chrono::steady_clock::time_point received, const std::string& client,
                         v1::LocaliseReply* reply) const;
+  // Adds the frame to its session and the session's answer to `reply`.
+  void UpdateSession(const v1::LocaliseRequest& request, const std::string& client,
+                     const LoadedMap& map, const LocaliseResult& result,
+                     v1::LocaliseReply* reply) const;
   Status HandleReload(const v1::ReloadMapRequest& request, v1::ReloadMapReply* reply) const;
   void HandleListMaps(v1::ListMapsReply* reply) const;
   void HandleStats(v1::StatsReply* reply) const;
@@ -61,6 +67,8 @@ class RequestHandler {
   const ServerStats* const stats_;
   // Memory of the JPEG decodes running at once (limits.max_decode_bytes).
   const std::unique_ptr<MemoryBudget> decode_budget_;
+  // The sessions of every map (thread-safe).
+  const std::unique_ptr<SessionStore> sessions_;
 };
 
 // Writes what identifies and describes a loaded map.

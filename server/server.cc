@@ -50,6 +50,7 @@ struct Job {
   zmq::message_t raw;  // the unparsed request when !parsed (the worker parses it)
   size_t bytes = 0;    // the request's size: counted in queued_bytes_ while queued or running
   Clock::time_point received;
+  std::string client;  // the key name (ZAP User-Id) with auth on, else empty
 };
 
 // One request as read off the ROUTER.
@@ -312,7 +313,8 @@ class ZmqServer final : public Server {
       return refuse(v1::INVALID_ARGUMENT, "request is not a valid sceneloc.v1.Request");
     }
     if (zap_ != nullptr) {
-      const Status allowed = CheckPermission(in.payload, job->parsed ? &job->request : nullptr);
+      job->client = UserOf(in.payload);
+      const Status allowed = CheckPermission(job->client, job->parsed ? &job->request : nullptr);
       if (!allowed.ok()) return refuse(v1::PERMISSION_DENIED, allowed.message());
     }
     if (draining) return refuse(v1::UNAVAILABLE, "server is shutting down");
@@ -323,15 +325,19 @@ class ZmqServer final : public Server {
     Dispatch(std::move(job));
   }
 
+  // The name of the key a message came with (set by the ZAP handler); empty without one.
+  static std::string UserOf(zmq::message_t& payload) {
+    try {
+      return payload.gets("User-Id");
+    } catch (const zmq::error_t&) {
+      return {};
+    }
+  }
+
   // With auth on: the request's key (its name, set by the ZAP handler) must still be in the
   // clients file, and reload_map needs one marked admin. `request` is null when the
   // request is too large to be parsed here (then it can only be a localise request).
-  Status CheckPermission(zmq::message_t& payload, const v1::Request* request) const {
-    std::string user;
-    try {
-      user = payload.gets("User-Id");
-    } catch (const zmq::error_t&) {
-    }
+  Status CheckPermission(const std::string& user, const v1::Request* request) const {
     const ZapHandler::Role role = zap_->RoleOf(user);
     if (role == ZapHandler::Role::kUnknown) {
       return PermissionDenied("key '" + user + "' is no longer in " + options_.auth.clients);
@@ -582,7 +588,7 @@ class ZmqServer final : public Server {
         if (IsStale(j, start, &reply)) {
           // answered OVERLOADED without the work
         } else if (ParseOnWorker(j, &reply)) {
-          handler_.Handle(j.request, j.received, &reply);
+          handler_.Handle(j.request, j.received, &reply, j.client);
           RecordServiceTime(MsSince(start));
         }
         RecordAndLog(&stats_, KindName(j.request), reply, j.received);

@@ -58,9 +58,13 @@ SettingTable Fields(ServerOptions* o) {
        "server-key"},
       {"auth", "clients", &o->auth.clients, 0, 0, "authorised client keys file (re-read on SIGHUP)",
        "auth-clients"},
+      {"sessions", "max_sessions", &o->sessions.max_sessions, 1, 1e9,
+       "live sessions at most; a new one beyond drops the least recently used", "max-sessions"},
+      {"sessions", "idle_timeout_s", &o->sessions.idle_timeout_s, 1e-3, 1e9,
+       "a session unused this long is dropped, seconds", "session-idle-timeout"},
   };
   for (SettingField& f : MatchSettingTable(&o->matching)) {
-    f.help = "matching." + f.key + " (configs/match.yaml)";
+    f.help = f.section + "." + f.key + " (configs/match.yaml)";
     table.push_back(std::move(f));
   }
   return table;
@@ -111,6 +115,7 @@ Status ServerOptions::Validate() const {
   if (!(drain_timeout_s >= 0)) return InvalidArgument("drain_timeout_s must be >= 0");
   SCENELOC_RETURN_IF_ERROR(limits.Validate());
   SCENELOC_RETURN_IF_ERROR(auth.Validate());
+  SCENELOC_RETURN_IF_ERROR(sessions.Validate());
   return matching.Validate();
 }
 

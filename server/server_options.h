@@ -19,6 +19,7 @@
 
 #include "common/matching/localiser.h"
 #include "common/util/status.h"
+#include "server/session_store.h"
 
 namespace sceneloc {
 
@@ -104,6 +105,7 @@ struct ServerOptions {
   double drain_timeout_s = 10;
   RequestLimits limits;
   AuthOptions auth;
+  SessionOptions sessions;
   MatchOptions matching;
 
   Status Validate() const;

@@ -168,5 +168,55 @@ TEST_F(ScenelocCliTest, BenchCountsErrorsByKind) {
   EXPECT_TRUE(json["map_versions"].empty());
 }
 
+// localise --session sends the images in order as one session: every answer line is followed
+// by the session's (its frame number, location, decision), the first marked a new session;
+// --reset-session starts it again.
+TEST_F(ScenelocCliTest, LocaliseSession) {
+  const std::string args =
+      "localise --server " + server_.endpoint + " --map synthetic --session robot-1 ";
+  const RunResult run = Sceneloc(args + Image(0) + " " + Image(4) + " " + Image(8));
+  EXPECT_EQ(run.status, 0) << run.output;
+  EXPECT_NE(run.output.find("q0.jpg\tsession robot-1 frame 1\t"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("(new session)"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("q8.jpg\tsession robot-1 frame 3\t8\tImage008.jpg"), std::string::npos)
+      << run.output;
+  const RunResult more = Sceneloc(args + Image(8));
+  EXPECT_NE(more.output.find("session robot-1 frame 4\t"), std::string::npos) << more.output;
+  const RunResult reset = Sceneloc(args + "--reset-session " + Image(0) + " " + Image(4));
+  EXPECT_NE(reset.output.find("q0.jpg\tsession robot-1 frame 1\t"), std::string::npos)
+      << reset.output;
+  EXPECT_NE(reset.output.find("(session reset)"), std::string::npos) << reset.output;
+  EXPECT_NE(reset.output.find("q4.jpg\tsession robot-1 frame 2\t"), std::string::npos)
+      << reset.output;
+  const RunResult bad = Sceneloc("localise --server " + server_.endpoint +
+                                 " --map synthetic --session \"$(printf 'a\\tb')\" " + Image(0));
+  EXPECT_EQ(bad.status, 1) << bad.output;
+  EXPECT_NE(bad.output.find("INVALID_ARGUMENT: session name"), std::string::npos) << bad.output;
+}
+
+// bench --sessions: each client thread is one session through the folder; the summary counts
+// the session answers that were LOCALISED.
+TEST_F(ScenelocCliTest, BenchSessions) {
+  const fs::path queries = dir_ / "queries";
+  fs::create_directories(queries);
+  for (size_t i = 0; i < test::TourJpegs().size(); ++i) {
+    std::ofstream(queries / ("Image" + std::to_string(100 + i) + ".jpg"), std::ios::binary)
+        << test::TourJpegs()[i];
+  }
+  const std::string json_path = (dir_ / "bench.json").string();
+  const RunResult run = Sceneloc("bench --server " + server_.endpoint +
+                                 " --map synthetic --clients 2 --duration 1 --sessions --json " +
+                                 json_path + " " + queries.string());
+  EXPECT_EQ(run.status, 0) << run.output;
+  EXPECT_NE(run.output.find("sessions    one per client"), std::string::npos) << run.output;
+  std::ifstream in(json_path);
+  ASSERT_TRUE(in) << run.output;
+  const nlohmann::json json = nlohmann::json::parse(in);
+  EXPECT_EQ(json["sessions"], true);
+  EXPECT_TRUE(json["errors"].empty()) << json.dump();
+  EXPECT_GT(json["session_localised"].get<int64_t>(), 0) << json.dump();
+  EXPECT_LE(json["session_localised"].get<int64_t>(), json["ok"].get<int64_t>());
+}
+
 }  // namespace
 }  // namespace sceneloc

@@ -85,5 +85,17 @@ TEST(WireTest, RefusesMalformedSets) {
   EXPECT_EQ(code(w), StatusCode::kInvalidArgument);  // neither encoding
 }
 
+// Session names: 1..128 printable ASCII characters; anything else is refused saying why.
+TEST(WireTest, SessionNames) {
+  EXPECT_TRUE(CheckSessionName("robot-7").ok());
+  EXPECT_TRUE(CheckSessionName("a b:c/d@e").ok());
+  EXPECT_TRUE(CheckSessionName(std::string(128, 'x')).ok());
+  EXPECT_NE(CheckSessionName("").message().find("empty"), std::string::npos);
+  EXPECT_NE(CheckSessionName(std::string(129, 'x')).message().find("129"), std::string::npos);
+  EXPECT_NE(CheckSessionName("a\nb").message().find("0x0a at offset 1"), std::string::npos);
+  EXPECT_FALSE(CheckSessionName(std::string("a\0b", 3)).ok());
+  EXPECT_FALSE(CheckSessionName("caf\xc3\xa9").ok());
+}
+
 }  // namespace
 }  // namespace sceneloc

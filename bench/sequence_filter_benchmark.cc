@@ -1,0 +1,88 @@
+// What a session costs per frame (common/matching/sequence_filter.h), against the number of
+// tour locations: the filter's Update on single-frame evidence of a walking robot, at 200
+// locations (the Gardens Point map) up to 10,000, with the fitted complexity. Also the
+// session store's memory for 1,000 live sessions of each size.
+//
+//   sequence_filter_benchmark [benchmark flags]
+//   e.g. --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+// The maps are generated in code: the filter reads only the number of locations, the
+// tolerance and the landmarks' track lengths (its motion band), not descriptors.
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <random>
+
+#include "common/matching/sequence_filter.h"
+#include "server/session_store.h"
+
+namespace sceneloc {
+namespace {
+
+// A map of `locations` tour images whose landmarks are each seen in 3 images (band 3).
+Map MakeMap(int locations) {
+  Map map;
+  for (int i = 0; i < locations; ++i) map.image_names.push_back(std::to_string(i));
+  const int landmarks = locations * 10;
+  map.observation_offsets.resize(static_cast<size_t>(landmarks) + 1);
+  for (int g = 0; g <= landmarks; ++g) map.observation_offsets[g] = 3 * g;
+  return map;
+}
+
+// Evidence of a frame at `where`: a peak with its neighbours, noise elsewhere.
+FrameEvidence Frame(int locations, int where, std::mt19937* rng) {
+  std::normal_distribution<float> noise(0, 0.4f);
+  FrameEvidence e;
+  e.in_map = 0.95;
+  e.location_scores.resize(locations);
+  for (int l = 0; l < locations; ++l) {
+    const double d = l - where;
+    e.location_scores[l] = static_cast<float>(4 * std::exp(-d * d / 2)) + noise(*rng);
+  }
+  return e;
+}
+
+void BM_FilterUpdate(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const Map map = MakeMap(n);
+  const SequenceFilter filter(map, SequenceOptions{});
+  std::mt19937 rng(1);
+  std::vector<FrameEvidence> frames;
+  for (int t = 0; t < 64; ++t) frames.push_back(Frame(n, (t * n) / 64, &rng));
+  SequenceState session;
+  size_t t = 0;
+  for (auto _ : state) {
+    SequenceAnswer a = filter.Update(frames[t++ % frames.size()], &session);
+    benchmark::DoNotOptimize(a);
+  }
+  state.SetComplexityN(n);
+  state.counters["state_bytes"] = static_cast<double>(session.belief.size() * sizeof(float));
+}
+BENCHMARK(BM_FilterUpdate)->Arg(200)->Arg(1000)->Arg(3000)->Arg(10000)->Complexity(benchmark::oN);
+
+// 1,000 live sessions in the server's store, each after one frame: the memory they hold.
+void BM_ThousandSessions(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const Map map = MakeMap(n);
+  const SequenceFilter filter(map, SequenceOptions{});
+  std::mt19937 rng(2);
+  const FrameEvidence frame = Frame(n, n / 2, &rng);
+  SessionCounts counts;
+  for (auto _ : state) {
+    SessionStore store(SessionOptions{});
+    for (int s = 0; s < 1000; ++s) {
+      store.Update("robot-key", "map", "robot-" + std::to_string(s), 1, false,
+                   SessionStore::Clock::now(),
+                   [&](SequenceState* st) { filter.Update(frame, st); });
+    }
+    counts = store.Counts();
+  }
+  state.counters["sessions"] = static_cast<double>(counts.live);
+  state.counters["memory_MB"] = static_cast<double>(counts.memory_bytes) / 1e6;
+  state.counters["bytes_per_session"] = static_cast<double>(counts.memory_bytes) / counts.live;
+}
+BENCHMARK(BM_ThousandSessions)->Arg(200)->Arg(10000)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+}  // namespace sceneloc
+
+BENCHMARK_MAIN();

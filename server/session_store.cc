@@ -1,0 +1,99 @@
+#include "server/session_store.h"
+
+#include <cmath>
+
+namespace sceneloc {
+namespace {
+
+// Client, map and session name joined by a byte none of them can hold (names are checked
+// printable; key names and map names hold no NUL).
+std::string Key(const std::string& client, const std::string& map, const std::string& name) {
+  std::string key;
+  key.reserve(client.size() + map.size() + name.size() + 2);
+  key.append(client).push_back('\0');
+  key.append(map).push_back('\0');
+  key.append(name);
+  return key;
+}
+
+size_t BeliefBytes(const SequenceState& state) { return state.belief.capacity() * sizeof(float); }
+
+}  // namespace
+
+Status SessionOptions::Validate() const {
+  if (max_sessions < 1) return InvalidArgument("sessions.max_sessions must be >= 1");
+  if (!(idle_timeout_s > 0) || !std::isfinite(idle_timeout_s)) {
+    return InvalidArgument("sessions.idle_timeout_s must be > 0");
+  }
+  return Status::Ok();
+}
+
+SessionStore::SessionStore(const SessionOptions& options) : options_(options) {}
+
+void SessionStore::DropIdle(Clock::time_point now) {
+  const auto timeout = std::chrono::duration<double>(options_.idle_timeout_s);
+  while (!lru_.empty()) {
+    const auto it = sessions_.find(lru_.back());
+    if (now - it->second.last_used < timeout) break;
+    state_bytes_ -= BeliefBytes(it->second.state);
+    sessions_.erase(it);
+    lru_.pop_back();
+    ++expired_;
+  }
+}
+
+void SessionStore::DropLeastRecentlyUsed() {
+  const auto it = sessions_.find(lru_.back());
+  state_bytes_ -= BeliefBytes(it->second.state);
+  sessions_.erase(it);
+  lru_.pop_back();
+  ++evicted_;
+}
+
+SessionStart SessionStore::Update(const std::string& client, const std::string& map,
+                                  const std::string& name, uint64_t generation, bool reset,
+                                  Clock::time_point now,
+                                  const std::function<void(SequenceState*)>& step) {
+  std::string key = Key(client, map, name);
+  std::lock_guard<std::mutex> lock(mutex_);
+  DropIdle(now);
+  SessionStart start = SessionStart::kContinued;
+  auto it = sessions_.find(key);
+  if (it == sessions_.end()) {
+    if (sessions_.size() >= static_cast<size_t>(options_.max_sessions)) DropLeastRecentlyUsed();
+    lru_.push_front(key);
+    it = sessions_.emplace(std::move(key), Entry{}).first;
+    it->second.lru = lru_.begin();
+    start = SessionStart::kNew;
+  } else {
+    lru_.splice(lru_.begin(), lru_, it->second.lru);
+    if (reset || it->second.generation != generation) {
+      start = reset ? SessionStart::kReset : SessionStart::kMapReloaded;
+      state_bytes_ -= BeliefBytes(it->second.state);
+      it->second.state = SequenceState{};
+    }
+  }
+  Entry& entry = it->second;
+  entry.generation = generation;
+  entry.last_used = now;
+  const size_t before = BeliefBytes(entry.state);
+  step(&entry.state);
+  state_bytes_ = state_bytes_ - before + BeliefBytes(entry.state);
+  return start;
+}
+
+SessionCounts SessionStore::Counts() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  SessionCounts c;
+  c.live = sessions_.size();
+  // Per session: the state, the key twice (map node and LRU list node) and the nodes.
+  size_t keys = 0;
+  for (const std::string& k : lru_) keys += 2 * k.capacity();
+  c.memory_bytes = state_bytes_ + keys +
+                   sessions_.size() * (sizeof(Entry) + sizeof(std::string) + 4 * sizeof(void*));
+  c.evicted = evicted_;
+  c.expired = expired_;
+  return c;
+}
+
+}  // namespace sceneloc

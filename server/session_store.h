@@ -1,0 +1,93 @@
+// Per-robot sessions (proto LocaliseRequest.session): the sequence filter's state
+// (common/matching/sequence_filter.h) of every live session, kept in the server.
+//
+// A session is named by the client and keyed by (client key name, map name, session name):
+// with auth.enabled, one robot's key cannot reach another key's sessions. The state is
+// bounded: at most max_sessions live (the least recently used is dropped for a new one),
+// a session unused for idle_timeout_s is dropped, and a session whose map was reloaded
+// since its last frame (a new generation) starts again.
+//
+// Why in the server: it is the simplest design that serves one server, costs the client
+// nothing and keeps the filter's state (N + 1 floats) off the wire. A fleet behind one
+// address (several server processes) needs the state to follow the session: SequenceState
+// is plain data, small enough (4 (N + 1) bytes) to travel in the reply and come back with
+// the next request; Update takes the state from wherever it is kept.
+//
+// Thread-safe: Update may run on any number of threads at once; one mutex guards the
+// store, held for the filter's update (microseconds; docs/results.md).
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <list>
+#include <mutex>
+#include <string>
+#include <unordered_map>
+
+#include "common/matching/sequence_filter.h"
+#include "common/util/status.h"
+#include "proto/wire.h"
+
+namespace sceneloc {
+
+struct SessionOptions {
+  // Live sessions at most, all maps; a new session beyond it drops the least recently used.
+  int64_t max_sessions = 10000;
+  // A session unused this long is dropped, seconds (> 0).
+  double idle_timeout_s = 600;
+
+  Status Validate() const;
+};
+
+enum class SessionStart { kContinued, kNew, kReset, kMapReloaded };
+
+struct SessionCounts {
+  size_t live = 0;
+  size_t memory_bytes = 0;  // states, keys and bookkeeping
+  uint64_t evicted = 0;
+  uint64_t expired = 0;
+};
+
+class SessionStore {
+ public:
+  using Clock = std::chrono::steady_clock;
+  // REQUIRES: options.Validate().ok().
+  explicit SessionStore(const SessionOptions& options);
+
+  // Runs `step` on the state of session (client, map, name) at map generation `generation`,
+  // under the store's lock: on a fresh state for a new session, after `reset`, or when the
+  // session last ran on another generation of its map; on its state otherwise. Drops the
+  // sessions idle past the timeout and, for a new session when full, the least recently
+  // used. Returns how the session began.
+  SessionStart Update(const std::string& client, const std::string& map, const std::string& name,
+                      uint64_t generation, bool reset, Clock::time_point now,
+                      const std::function<void(SequenceState*)>& step);
+
+  SessionCounts Counts() const;
+
+ private:
+  struct Entry {
+    SequenceState state;
+    uint64_t generation = 0;
+    Clock::time_point last_used;
+    std::list<std::string>::iterator lru;  // its place in lru_
+  };
+
+  // REQUIRES: mutex_ held.
+  void DropIdle(Clock::time_point now);
+  void DropLeastRecentlyUsed();
+
+  // Constant after construction.
+  const SessionOptions options_;
+
+  mutable std::mutex mutex_;
+  // Guarded by mutex_.
+  std::unordered_map<std::string, Entry> sessions_;
+  std::list<std::string> lru_;  // keys, most recently used first
+  size_t state_bytes_ = 0;      // sum of the states' belief sizes, bytes
+  uint64_t evicted_ = 0;
+  uint64_t expired_ = 0;
+};
+
+}  // namespace sceneloc

@@ -1,0 +1,207 @@
+// Robot sessions end to end, through a real server on tcp://127.0.0.1:* serving the map of
+// the generated tour: frames of one session are filtered together, sessions do not disturb
+// each other, reset and a map reload start one again, the store's bounds (LRU, idle
+// timeout) hold, and bad session names are refused while the server keeps serving.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "client/client.h"
+#include "tests/server/server_test_support.h"
+
+namespace sceneloc {
+namespace {
+
+using test::kTestMapName;
+using test::kTestTourLocations;
+
+class SessionTest : public ::testing::Test {
+ protected:
+  void Start(const ServerOptions& options) {
+    server_ = test::StartTestServerOnDir(options);
+    ASSERT_FALSE(HasFatalFailure());
+    client_ = Connect();
+  }
+  void SetUp() override {
+    ServerOptions options = test::TestServerOptions();
+    options.maps_dir = dir_.path();
+    Start(options);
+  }
+
+  std::unique_ptr<Client> Connect() const {
+    ClientOptions options;
+    options.timeout_ms = 20000 * test::kTimeScale;
+    options.retries = 0;
+    auto client = Client::Connect(server_.endpoint, options);
+    EXPECT_TRUE(client.ok());
+    return client.ok() ? std::move(client).value() : nullptr;
+  }
+
+  // Tour location `i` (its features) as a frame of `session`.
+  static StatusOr<v1::LocaliseReply> Frame(Client* client, int i, const std::string& session,
+                                           bool reset = false) {
+    LocaliseOptions options;
+    options.session = session;
+    options.reset_session = reset;
+    return client->Localise(kTestMapName, test::TourFeatures(i), options);
+  }
+
+  test::TempMapsDir dir_{"sessions"};
+  test::TestServer server_;
+  std::unique_ptr<Client> client_;
+};
+
+// A walk along the tour as one session: the frames are counted, the first is NEW and the
+// rest CONTINUED, and the session's answers follow the robot, LOCALISED once it has seen a
+// few frames. A request without a session has no session answer.
+TEST_F(SessionTest, SessionFollowsTheWalk) {
+  for (int i = 0; i < kTestTourLocations; ++i) {
+    auto reply = Frame(client_.get(), i, "robot-a");
+    ASSERT_TRUE(reply.ok()) << reply.status().ToString();
+    ASSERT_TRUE(reply->has_session());
+    const v1::SessionAnswer& s = reply->session();
+    EXPECT_EQ(s.name(), "robot-a");
+    EXPECT_EQ(s.frames(), static_cast<uint32_t>(i + 1));
+    EXPECT_EQ(s.start(), i == 0 ? v1::NEW : v1::CONTINUED);
+    EXPECT_FLOAT_EQ(s.min_confidence(), 0.8f);
+    EXPECT_GE(s.probability(), 0.0f);
+    EXPECT_LE(s.probability() + s.off_map(), 1.0f + 1e-5f);
+    if (i >= 2) {
+      EXPECT_LE(std::abs(s.location() - i), 2) << "frame " << i;
+      EXPECT_EQ(s.decision(), v1::LOCALISED) << "frame " << i;
+    }
+  }
+  auto alone = client_->Localise(kTestMapName, test::TourFeatures(3));
+  ASSERT_TRUE(alone.ok());
+  EXPECT_FALSE(alone->has_session());
+}
+
+// Two robots on one map, their frames interleaved on two connections: each session counts
+// only its own frames, and robot A's answers are those it gets when it walks alone.
+TEST_F(SessionTest, TwoSessionsDoNotDisturbEachOther) {
+  std::vector<v1::SessionAnswer> alone;
+  for (int i = 0; i < kTestTourLocations; ++i) {
+    auto reply = Frame(client_.get(), i, "solo");
+    ASSERT_TRUE(reply.ok());
+    alone.push_back(reply->session());
+  }
+  std::unique_ptr<Client> other = Connect();
+  ASSERT_NE(other, nullptr);
+  for (int i = 0; i < kTestTourLocations; ++i) {
+    auto a = Frame(client_.get(), i, "robot-a");
+    auto b = Frame(other.get(), kTestTourLocations - 1 - i, "robot-b");  // walking back
+    ASSERT_TRUE(a.ok() && b.ok());
+    EXPECT_EQ(a->session().frames(), static_cast<uint32_t>(i + 1));
+    EXPECT_EQ(b->session().frames(), static_cast<uint32_t>(i + 1));
+    EXPECT_EQ(a->session().location(), alone[i].location()) << "frame " << i;
+    EXPECT_NEAR(a->session().probability(), alone[i].probability(), 1e-4) << "frame " << i;
+  }
+}
+
+// reset_session forgets the past: frames count from 1 again, start RESET. Without a session
+// name it is refused.
+TEST_F(SessionTest, ResetStartsAgain) {
+  for (int i = 0; i < 4; ++i) ASSERT_TRUE(Frame(client_.get(), i, "r").ok());
+  auto reply = Frame(client_.get(), 8, "r", /*reset=*/true);
+  ASSERT_TRUE(reply.ok());
+  EXPECT_EQ(reply->session().frames(), 1u);
+  EXPECT_EQ(reply->session().start(), v1::RESET);
+  LocaliseOptions nameless;
+  nameless.reset_session = true;
+  auto refused = client_->Localise(kTestMapName, test::TourFeatures(0), nameless);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().message().find("INVALID_ARGUMENT"), std::string::npos);
+}
+
+// A map reload mid-session (a new generation) restarts the session: MAP_RELOADED, frames
+// from 1.
+TEST_F(SessionTest, MapReloadRestartsTheSession) {
+  for (int i = 0; i < 3; ++i) ASSERT_TRUE(Frame(client_.get(), i, "r").ok());
+  auto reloaded = client_->Reload(kTestMapName);
+  ASSERT_TRUE(reloaded.ok()) << reloaded.status().ToString();
+  EXPECT_EQ(reloaded->map().version().generation(), 2u);
+  auto reply = Frame(client_.get(), 3, "r");
+  ASSERT_TRUE(reply.ok());
+  EXPECT_EQ(reply->session().start(), v1::MAP_RELOADED);
+  EXPECT_EQ(reply->session().frames(), 1u);
+  EXPECT_EQ(reply->map().generation(), 2u);
+  auto next = Frame(client_.get(), 4, "r");
+  ASSERT_TRUE(next.ok());
+  EXPECT_EQ(next->session().start(), v1::CONTINUED);
+  EXPECT_EQ(next->session().frames(), 2u);
+}
+
+// Over-long, empty-with-reset and non-printable session names are INVALID_ARGUMENT with the
+// reason; the server goes on serving sessions.
+TEST_F(SessionTest, BadSessionNamesAreRefused) {
+  for (const std::string& name : {std::string(129, 'x'), std::string("robot\n1"),
+                                  std::string("a\0b", 3), std::string("caf\xc3\xa9")}) {
+    auto reply = Frame(client_.get(), 0, name);
+    ASSERT_FALSE(reply.ok());
+    EXPECT_NE(reply.status().message().find("INVALID_ARGUMENT: session name"), std::string::npos)
+        << reply.status().message();
+  }
+  auto fine = Frame(client_.get(), 0, std::string(128, 'x'));
+  ASSERT_TRUE(fine.ok());
+  EXPECT_EQ(fine->session().frames(), 1u);
+}
+
+// The server's counters: live sessions and their memory.
+TEST_F(SessionTest, StatsCountSessions) {
+  for (int s = 0; s < 5; ++s)
+    ASSERT_TRUE(Frame(client_.get(), s, "robot-" + std::to_string(s)).ok());
+  auto stats = client_->Stats();
+  ASSERT_TRUE(stats.ok());
+  EXPECT_EQ(stats->sessions(), 5u);
+  EXPECT_GE(stats->session_memory_bytes(), 5u * (kTestTourLocations + 1) * sizeof(float));
+}
+
+class BoundedSessionTest : public SessionTest {
+ protected:
+  void SetUp() override {}
+};
+
+// sessions.max_sessions: a new session beyond it drops the least recently used one, which
+// then starts again as NEW.
+TEST_F(BoundedSessionTest, LeastRecentlyUsedIsEvicted) {
+  ServerOptions options = test::TestServerOptions();
+  options.maps_dir = dir_.path();
+  options.sessions.max_sessions = 2;
+  Start(options);
+  ASSERT_FALSE(HasFatalFailure());
+  ASSERT_TRUE(Frame(client_.get(), 0, "a").ok());
+  ASSERT_TRUE(Frame(client_.get(), 0, "b").ok());
+  ASSERT_TRUE(Frame(client_.get(), 1, "a").ok());  // b is now the least recently used
+  ASSERT_TRUE(Frame(client_.get(), 0, "c").ok());
+  auto a = Frame(client_.get(), 2, "a");
+  auto b = Frame(client_.get(), 1, "b");
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_EQ(a->session().start(), v1::CONTINUED);
+  EXPECT_EQ(a->session().frames(), 3u);
+  EXPECT_EQ(b->session().start(), v1::NEW);
+  auto stats = client_->Stats();
+  ASSERT_TRUE(stats.ok());
+  EXPECT_EQ(stats->sessions(), 2u);
+  EXPECT_GE(stats->sessions_evicted(), 2u);  // b for c, then a or c for b
+}
+
+// sessions.idle_timeout_s: a session unused that long is gone (here 1 ms: the next frame
+// always comes later than that).
+TEST_F(BoundedSessionTest, IdleSessionExpires) {
+  ServerOptions options = test::TestServerOptions();
+  options.maps_dir = dir_.path();
+  options.sessions.idle_timeout_s = 0.001;
+  Start(options);
+  ASSERT_FALSE(HasFatalFailure());
+  ASSERT_TRUE(Frame(client_.get(), 0, "r").ok());
+  auto again = Frame(client_.get(), 1, "r");
+  ASSERT_TRUE(again.ok());
+  EXPECT_EQ(again->session().start(), v1::NEW);
+  EXPECT_EQ(again->session().frames(), 1u);
+  auto stats = client_->Stats();
+  ASSERT_TRUE(stats.ok());
+  EXPECT_GE(stats->sessions_expired(), 1u);
+}
+
+}  // namespace
+}  // namespace sceneloc
