@@ -70,7 +70,7 @@ void BM_ThousandSessions(benchmark::State& state) {
   for (auto _ : state) {
     SessionStore store(SessionOptions{});
     for (int s = 0; s < 1000; ++s) {
-      store.Update("robot-key", "map", "robot-" + std::to_string(s), 1, false,
+      store.Update("robot-key", "map", "robot-" + std::to_string(s), 1, {},
                    SessionStore::Clock::now(),
                    [&](SequenceState* st) { filter.Update(frame, st); });
     }

@@ -1,6 +1,7 @@
 #include "client/client.h"
 
 #include <chrono>
+#include <map>
 #include <random>
 #include <zmq.hpp>
 
@@ -70,6 +71,37 @@ class ZmqClient final : public Client {
 
   StatusOr<v1::Reply> Call(v1::Request request) override {
     request.set_request_id(next_id_++);
+    const std::string session = CarrySessionState(&request);
+    StatusOr<v1::Reply> reply = Send(request);
+    if (!session.empty()) KeepSessionState(session, reply);
+    return reply;
+  }
+
+  // A localise request of a session carries the state of that session's last reply (unless
+  // it sets one itself or resets). Returns the session's key here ("" for none).
+  std::string CarrySessionState(v1::Request* request) const {
+    if (!request->has_localise() || request->localise().session().empty()) return {};
+    v1::LocaliseRequest* localise = request->mutable_localise();
+    std::string key = localise->map() + '\0' + localise->session();
+    const auto it = session_states_.find(key);
+    if (it != session_states_.end() && localise->session_state().empty() &&
+        !localise->reset_session()) {
+      localise->set_session_state(it->second);
+    }
+    return key;
+  }
+
+  // Remembers the session's state from its reply; forgets it after an error reply (the
+  // server then continues from the state it keeps, if any).
+  void KeepSessionState(const std::string& key, const StatusOr<v1::Reply>& reply) {
+    if (reply.ok() && reply->status() == v1::OK && reply->localise().has_session()) {
+      session_states_[key] = reply->localise().session().state();
+    } else if (reply.ok()) {
+      session_states_.erase(key);
+    }
+  }
+
+  StatusOr<v1::Reply> Send(const v1::Request& request) {
     const std::string bytes = request.SerializeAsString();
     for (int attempt = 0; attempt <= options_.retries; ++attempt) {
       if (attempt > 0) SCENELOC_RETURN_IF_ERROR(Open());  // a fresh socket per retry
@@ -171,6 +203,8 @@ class ZmqClient final : public Client {
   const ClientOptions options_;
   zmq::context_t context_;
   zmq::socket_t socket_;
+  // The `state` of each session's last reply, by map and session name (CarrySessionState).
+  std::map<std::string, std::string> session_states_;
   KeyPair own_key_;     // empty without CURVE
   KeyPair server_key_;  // its public half
   uint64_t next_id_ = 1;

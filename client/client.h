@@ -35,6 +35,8 @@ struct LocaliseOptions {
   // filtered together on the server and the reply's session() holds the filtered answer.
   // Empty = a frame on its own. Send a session's frames one call after another. A call that
   // is retried after a timeout may add its frame to the session twice (a small bias).
+  // The client keeps each session's state from its last reply and sends it with the next
+  // request (LocaliseRequest.session_state), so any server serving the map continues it.
   std::string session;
   // Forget the session's past before this frame.
   bool reset_session = false;

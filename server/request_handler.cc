@@ -4,6 +4,7 @@
 #include <exception>
 #include <filesystem>
 #include <new>
+#include <optional>
 
 #include "common/util/timer.h"
 #include "proto/wire.h"
@@ -77,6 +78,11 @@ StatusOr<FeatureSet> ExtractJpeg(const std::string& jpeg, const LoadedMap& map,
   auto features = map.extractor->Extract(image, map.map.QueryTarget(image.cols, image.rows));
   timings->set_extract_ms(watch.Milliseconds());
   return features;
+}
+
+TokenOwner TokenOwnerOf(const std::string& client, const v1::LocaliseRequest& request,
+                        const LoadedMap& map) {
+  return {client, request.session(), map.checksum, map.map.num_images()};
 }
 
 v1::SessionStart ToWireStart(SessionStart start) {
@@ -207,6 +213,17 @@ Status RequestHandler::HandleLocalise(const v1::LocaliseRequest& request,
   // The one snapshot this request uses from here to its reply.
   const std::shared_ptr<const LoadedMap> map = registry_->Get(request.map());
   if (map == nullptr) return NotFound("no map named '" + request.map() + "'");
+  // A carried session state is checked before any work is done on the frame.
+  std::optional<SequenceState> carried;
+  bool other_map = false;
+  if (!request.session().empty() && !request.session_state().empty() && !request.reset_session()) {
+    SequenceState state;
+    SCENELOC_ASSIGN_OR_RETURN(
+        const TokenFit fit,
+        ParseSessionToken(request.session_state(), TokenOwnerOf(client, request, *map), &state));
+    other_map = fit == TokenFit::kOtherMap;
+    if (fit == TokenFit::kFits) carried = std::move(state);
+  }
 
   const Clock::time_point deadline =
       received + std::chrono::milliseconds(options_.limits.max_request_ms);
@@ -243,7 +260,10 @@ Status RequestHandler::HandleLocalise(const v1::LocaliseRequest& request,
   }
   SCENELOC_ASSIGN_OR_RETURN(const LocaliseResult result, std::move(localised));
   FillResult(result, *map, match, reply);
-  if (!request.session().empty()) UpdateSession(request, client, *map, result, reply);
+  if (!request.session().empty()) {
+    const SessionSeed seed{request.reset_session(), other_map, carried ? &*carried : nullptr};
+    UpdateSession(request, client, *map, result, seed, reply);
+  }
   reply->set_num_features(static_cast<uint32_t>(features->size()));
   v1::Timings* t = reply->mutable_timings();
   t->set_queue_ms(timings.queue_ms());
@@ -255,13 +275,17 @@ Status RequestHandler::HandleLocalise(const v1::LocaliseRequest& request,
 
 void RequestHandler::UpdateSession(const v1::LocaliseRequest& request, const std::string& client,
                                    const LoadedMap& map, const LocaliseResult& result,
-                                   v1::LocaliseReply* reply) const {
+                                   const SessionSeed& seed, v1::LocaliseReply* reply) const {
   const FrameEvidence evidence = EvidenceOf(result, map.map);
   SequenceAnswer answer;
-  const SessionStart start = sessions_->Update(
-      client, map.name, request.session(), map.generation, request.reset_session(), Clock::now(),
-      [&](SequenceState* state) { answer = map.sequence->Update(evidence, state); });
   v1::SessionAnswer* out = reply->mutable_session();
+  const TokenOwner owner = TokenOwnerOf(client, request, map);
+  const SessionStart start =
+      sessions_->Update(client, map.name, request.session(), map.generation, seed, Clock::now(),
+                        [&](SequenceState* state) {
+                          answer = map.sequence->Update(evidence, state);
+                          out->set_state(SerializeSessionToken(*state, owner));
+                        });
   out->set_name(request.session());
   out->set_location(answer.location);
   out->set_image_name(map.map.image_names[answer.location]);

@@ -22,6 +22,7 @@
 #include "server/server_options.h"
 #include "server/server_stats.h"
 #include "server/session_store.h"
+#include "server/session_token.h"
 
 namespace sceneloc {
 
@@ -55,7 +56,7 @@ class RequestHandler {
                         v1::LocaliseReply* reply) const;
   // Adds the frame to its session and the session's answer to `reply`.
   void UpdateSession(const v1::LocaliseRequest& request, const std::string& client,
-                     const LoadedMap& map, const LocaliseResult& result,
+                     const LoadedMap& map, const LocaliseResult& result, const SessionSeed& seed,
                      v1::LocaliseReply* reply) const;
   Status HandleReload(const v1::ReloadMapRequest& request, v1::ReloadMapReply* reply) const;
   void HandleListMaps(v1::ListMapsReply* reply) const;

@@ -51,8 +51,8 @@ void SessionStore::DropLeastRecentlyUsed() {
 }
 
 SessionStart SessionStore::Update(const std::string& client, const std::string& map,
-                                  const std::string& name, uint64_t generation, bool reset,
-                                  Clock::time_point now,
+                                  const std::string& name, uint64_t generation,
+                                  const SessionSeed& seed, Clock::time_point now,
                                   const std::function<void(SequenceState*)>& step) {
   std::string key = Key(client, map, name);
   std::lock_guard<std::mutex> lock(mutex_);
@@ -67,13 +67,24 @@ SessionStart SessionStore::Update(const std::string& client, const std::string& 
     start = SessionStart::kNew;
   } else {
     lru_.splice(lru_.begin(), lru_, it->second.lru);
-    if (reset || it->second.generation != generation) {
-      start = reset ? SessionStart::kReset : SessionStart::kMapReloaded;
-      state_bytes_ -= BeliefBytes(it->second.state);
-      it->second.state = SequenceState{};
-    }
+    if (it->second.generation != generation) start = SessionStart::kMapReloaded;
   }
   Entry& entry = it->second;
+  if (seed.reset) {
+    start = SessionStart::kReset;
+  } else if (seed.other_map) {
+    start = SessionStart::kMapReloaded;
+  } else if (seed.carried != nullptr) {
+    start = SessionStart::kContinued;
+  }
+  if (start != SessionStart::kContinued) {
+    state_bytes_ -= BeliefBytes(entry.state);
+    entry.state = SequenceState{};
+  } else if (seed.carried != nullptr) {
+    state_bytes_ -= BeliefBytes(entry.state);
+    entry.state = *seed.carried;
+    state_bytes_ += BeliefBytes(entry.state);
+  }
   entry.generation = generation;
   entry.last_used = now;
   const size_t before = BeliefBytes(entry.state);

@@ -7,11 +7,10 @@
 // a session unused for idle_timeout_s is dropped, and a session whose map was reloaded
 // since its last frame (a new generation) starts again.
 //
-// Why in the server: it is the simplest design that serves one server, costs the client
-// nothing and keeps the filter's state (N + 1 floats) off the wire. A fleet behind one
-// address (several server processes) needs the state to follow the session: SequenceState
-// is plain data, small enough (4 (N + 1) bytes) to travel in the reply and come back with
-// the next request; Update takes the state from wherever it is kept.
+// The store is half of where a session lives: every reply also carries the state
+// (session_token.h) and a request that sends it back continues from it (SessionSeed), so
+// a session survives eviction, expiry, a restart, and frames answered by another process
+// (README "Robot sessions" says why both).
 //
 // Thread-safe: Update may run on any number of threads at once; one mutex guards the
 // store, held for the filter's update (microseconds; docs/results.md).
@@ -42,6 +41,14 @@ struct SessionOptions {
 
 enum class SessionStart { kContinued, kNew, kReset, kMapReloaded };
 
+// What a request says about where its session continues from.
+struct SessionSeed {
+  bool reset = false;      // start again (reset_session)
+  bool other_map = false;  // it carried a state of another map: start again
+  // A state it carried (session_token.h), which replaces the store's; null = none.
+  const SequenceState* carried = nullptr;
+};
+
 struct SessionCounts {
   size_t live = 0;
   size_t memory_bytes = 0;  // states, keys and bookkeeping
@@ -56,12 +63,13 @@ class SessionStore {
   explicit SessionStore(const SessionOptions& options);
 
   // Runs `step` on the state of session (client, map, name) at map generation `generation`,
-  // under the store's lock: on a fresh state for a new session, after `reset`, or when the
-  // session last ran on another generation of its map; on its state otherwise. Drops the
-  // sessions idle past the timeout and, for a new session when full, the least recently
-  // used. Returns how the session began.
+  // under the store's lock: on seed.carried when given; on a fresh state after a reset, a
+  // state of another map, for a session the store does not hold, or one that last ran on
+  // another generation of its map; on its stored state otherwise. Keeps the result. Drops
+  // the sessions idle past the timeout and, for a new session when full, the least
+  // recently used. Returns how the session began (CONTINUED for a carried state).
   SessionStart Update(const std::string& client, const std::string& map, const std::string& name,
-                      uint64_t generation, bool reset, Clock::time_point now,
+                      uint64_t generation, const SessionSeed& seed, Clock::time_point now,
                       const std::function<void(SequenceState*)>& step);
 
   SessionCounts Counts() const;

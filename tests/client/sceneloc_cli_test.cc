@@ -45,6 +45,16 @@ class ScenelocCliTest : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(dir_); }
   std::string Image(int i) const { return (dir_ / ("q" + std::to_string(i) + ".jpg")).string(); }
+  // A folder "queries" holding every tour JPEG, in tour order; returns it.
+  fs::path WriteTourQueries() const {
+    const fs::path queries = dir_ / "queries";
+    fs::create_directories(queries);
+    for (size_t i = 0; i < test::TourJpegs().size(); ++i) {
+      std::ofstream(queries / ("Image" + std::to_string(100 + i) + ".jpg"), std::ios::binary)
+          << test::TourJpegs()[i];
+    }
+    return queries;
+  }
 
   test::TestServer server_;
   fs::path dir_;
@@ -99,12 +109,7 @@ TEST_F(ScenelocCliTest, MapsListsGenerations) {
 // bench runs 2 clients for about a second against the real server and writes the JSON a
 // user relies on: requests answered, no errors, latency percentiles, the map generation.
 TEST_F(ScenelocCliTest, BenchWritesJsonSummary) {
-  const fs::path queries = dir_ / "queries";
-  fs::create_directories(queries);
-  for (size_t i = 0; i < test::TourJpegs().size(); ++i) {
-    std::ofstream(queries / ("Image" + std::to_string(100 + i) + ".jpg"), std::ios::binary)
-        << test::TourJpegs()[i];
-  }
+  const fs::path queries = WriteTourQueries();
   const std::string json_path = (dir_ / "bench.json").string();
   const RunResult run = Sceneloc("bench --server " + server_.endpoint +
                                  " --map synthetic --clients 2 --duration 1 --json " + json_path +
@@ -197,12 +202,7 @@ TEST_F(ScenelocCliTest, LocaliseSession) {
 // bench --sessions: each client thread is one session through the folder; the summary counts
 // the session answers that were LOCALISED.
 TEST_F(ScenelocCliTest, BenchSessions) {
-  const fs::path queries = dir_ / "queries";
-  fs::create_directories(queries);
-  for (size_t i = 0; i < test::TourJpegs().size(); ++i) {
-    std::ofstream(queries / ("Image" + std::to_string(100 + i) + ".jpg"), std::ios::binary)
-        << test::TourJpegs()[i];
-  }
+  const fs::path queries = WriteTourQueries();
   const std::string json_path = (dir_ / "bench.json").string();
   const RunResult run = Sceneloc("bench --server " + server_.endpoint +
                                  " --map synthetic --clients 2 --duration 1 --sessions --json " +

@@ -104,6 +104,29 @@ TEST_F(AuthTest, ReloadNeedsAnAdminKey) {
   EXPECT_EQ(reloaded->map().version().generation(), 2u);
 }
 
+// Sessions are kept per key: two keys using one session name have two sessions, so one
+// robot's key cannot read or disturb another's.
+TEST_F(AuthTest, SessionsAreKeptPerKey) {
+  test::TestServer server = test::StartTestServerOnDir(options_);
+  ASSERT_FALSE(::testing::Test::HasFatalFailure());
+  auto robot = Connect(server.endpoint, "robot");
+  auto ops = Connect(server.endpoint, "ops");
+  LocaliseOptions session;
+  session.session = "shared-name";
+  for (int i = 0; i < 3; ++i) {
+    auto answer = robot->Localise(kTestMapName, test::TourFeatures(i), session);
+    ASSERT_TRUE(answer.ok()) << answer.status().ToString();
+    EXPECT_EQ(answer->session().frames(), static_cast<uint32_t>(i + 1));
+  }
+  auto other = ops->Localise(kTestMapName, test::TourFeatures(9), session);
+  ASSERT_TRUE(other.ok()) << other.status().ToString();
+  EXPECT_EQ(other->session().start(), v1::NEW);
+  EXPECT_EQ(other->session().frames(), 1u);
+  auto again = robot->Localise(kTestMapName, test::TourFeatures(3), session);
+  ASSERT_TRUE(again.ok());
+  EXPECT_EQ(again->session().frames(), 4u);
+}
+
 TEST_F(AuthTest, ARevokedKeyIsRefusedOnItsOpenConnection) {
   test::TestServer server = test::StartTestServerOnDir(options_);
   ASSERT_FALSE(::testing::Test::HasFatalFailure());

@@ -33,9 +33,9 @@ TEST(SessionStoreTest, FramesOfOneSessionShareTheirState) {
     Step(s);
     frames = s->frames;
   };
-  EXPECT_EQ(store.Update("", "map", "robot", 1, false, t0, count), SessionStart::kNew);
-  EXPECT_EQ(store.Update("", "map", "robot", 1, false, t0, count), SessionStart::kContinued);
-  EXPECT_EQ(store.Update("", "map", "robot", 1, false, t0, count), SessionStart::kContinued);
+  EXPECT_EQ(store.Update("", "map", "robot", 1, {}, t0, count), SessionStart::kNew);
+  EXPECT_EQ(store.Update("", "map", "robot", 1, {}, t0, count), SessionStart::kContinued);
+  EXPECT_EQ(store.Update("", "map", "robot", 1, {}, t0, count), SessionStart::kContinued);
   EXPECT_EQ(frames, 3u);
   EXPECT_EQ(store.Counts().live, 1u);
 }
@@ -44,14 +44,14 @@ TEST(SessionStoreTest, FramesOfOneSessionShareTheirState) {
 TEST(SessionStoreTest, KeyedByClientMapAndName) {
   SessionStore store(Options(10));
   const Clock::time_point t0 = Clock::now();
-  EXPECT_EQ(store.Update("alice", "map", "r", 1, false, t0, Step), SessionStart::kNew);
-  EXPECT_EQ(store.Update("bob", "map", "r", 1, false, t0, Step), SessionStart::kNew);
-  EXPECT_EQ(store.Update("alice", "other", "r", 1, false, t0, Step), SessionStart::kNew);
-  EXPECT_EQ(store.Update("alice", "map", "r2", 1, false, t0, Step), SessionStart::kNew);
+  EXPECT_EQ(store.Update("alice", "map", "r", 1, {}, t0, Step), SessionStart::kNew);
+  EXPECT_EQ(store.Update("bob", "map", "r", 1, {}, t0, Step), SessionStart::kNew);
+  EXPECT_EQ(store.Update("alice", "other", "r", 1, {}, t0, Step), SessionStart::kNew);
+  EXPECT_EQ(store.Update("alice", "map", "r2", 1, {}, t0, Step), SessionStart::kNew);
   // No ambiguity from joining: ("a", "b\0c") style collisions cannot be built from
   // printable names, but ("ab", "c") vs ("a", "bc") can.
-  EXPECT_EQ(store.Update("ab", "c", "r", 1, false, t0, Step), SessionStart::kNew);
-  EXPECT_EQ(store.Update("a", "bc", "r", 1, false, t0, Step), SessionStart::kNew);
+  EXPECT_EQ(store.Update("ab", "c", "r", 1, {}, t0, Step), SessionStart::kNew);
+  EXPECT_EQ(store.Update("a", "bc", "r", 1, {}, t0, Step), SessionStart::kNew);
   EXPECT_EQ(store.Counts().live, 6u);
 }
 
@@ -64,14 +64,14 @@ TEST(SessionStoreTest, ResetAndMapReloadStartAgain) {
     Step(s);
     frames = s->frames;
   };
-  store.Update("", "map", "r", 1, false, t0, count);
-  store.Update("", "map", "r", 1, false, t0, count);
-  EXPECT_EQ(store.Update("", "map", "r", 1, true, t0, count), SessionStart::kReset);
+  store.Update("", "map", "r", 1, {}, t0, count);
+  store.Update("", "map", "r", 1, {}, t0, count);
+  EXPECT_EQ(store.Update("", "map", "r", 1, SessionSeed{true}, t0, count), SessionStart::kReset);
   EXPECT_EQ(frames, 1u);
-  store.Update("", "map", "r", 1, false, t0, count);
-  EXPECT_EQ(store.Update("", "map", "r", 2, false, t0, count), SessionStart::kMapReloaded);
+  store.Update("", "map", "r", 1, {}, t0, count);
+  EXPECT_EQ(store.Update("", "map", "r", 2, {}, t0, count), SessionStart::kMapReloaded);
   EXPECT_EQ(frames, 1u);
-  EXPECT_EQ(store.Update("", "map", "r", 2, false, t0, count), SessionStart::kContinued);
+  EXPECT_EQ(store.Update("", "map", "r", 2, {}, t0, count), SessionStart::kContinued);
   EXPECT_EQ(frames, 2u);
 }
 
@@ -80,26 +80,26 @@ TEST(SessionStoreTest, ResetAndMapReloadStartAgain) {
 TEST(SessionStoreTest, LeastRecentlyUsedIsEvicted) {
   SessionStore store(Options(2));
   const Clock::time_point t0 = Clock::now();
-  store.Update("", "m", "a", 1, false, t0, Step);
-  store.Update("", "m", "b", 1, false, t0, Step);
-  store.Update("", "m", "a", 1, false, t0, Step);  // a is now the most recent
-  store.Update("", "m", "c", 1, false, t0, Step);  // drops b
+  store.Update("", "m", "a", 1, {}, t0, Step);
+  store.Update("", "m", "b", 1, {}, t0, Step);
+  store.Update("", "m", "a", 1, {}, t0, Step);  // a is now the most recent
+  store.Update("", "m", "c", 1, {}, t0, Step);  // drops b
   EXPECT_EQ(store.Counts().live, 2u);
   EXPECT_EQ(store.Counts().evicted, 1u);
-  EXPECT_EQ(store.Update("", "m", "a", 1, false, t0, Step), SessionStart::kContinued);
-  EXPECT_EQ(store.Update("", "m", "b", 1, false, t0, Step), SessionStart::kNew);
+  EXPECT_EQ(store.Update("", "m", "a", 1, {}, t0, Step), SessionStart::kContinued);
+  EXPECT_EQ(store.Update("", "m", "b", 1, {}, t0, Step), SessionStart::kNew);
 }
 
 // A session idle past the timeout is dropped; one used within it is kept.
 TEST(SessionStoreTest, IdleSessionsExpire) {
   SessionStore store(Options(10, 60));
   const Clock::time_point t0 = Clock::now();
-  store.Update("", "m", "old", 1, false, t0, Step);
-  store.Update("", "m", "busy", 1, false, t0 + seconds(50), Step);
-  EXPECT_EQ(store.Update("", "m", "busy", 1, false, t0 + seconds(100), Step),
+  store.Update("", "m", "old", 1, {}, t0, Step);
+  store.Update("", "m", "busy", 1, {}, t0 + seconds(50), Step);
+  EXPECT_EQ(store.Update("", "m", "busy", 1, {}, t0 + seconds(100), Step),
             SessionStart::kContinued);
   EXPECT_EQ(store.Counts().expired, 1u);  // "old", idle 100 s
-  EXPECT_EQ(store.Update("", "m", "old", 1, false, t0 + seconds(100), Step), SessionStart::kNew);
+  EXPECT_EQ(store.Update("", "m", "old", 1, {}, t0 + seconds(100), Step), SessionStart::kNew);
 }
 
 // The memory reported grows with the sessions and their states and falls when they go.
@@ -108,12 +108,12 @@ TEST(SessionStoreTest, MemoryIsCounted) {
   const Clock::time_point t0 = Clock::now();
   EXPECT_EQ(store.Counts().memory_bytes, 0u);
   const auto big = [](SequenceState* s) { s->belief.assign(1001, 0.001f); };
-  for (int i = 0; i < 100; ++i) store.Update("", "m", std::to_string(i), 1, false, t0, big);
+  for (int i = 0; i < 100; ++i) store.Update("", "m", std::to_string(i), 1, {}, t0, big);
   const SessionCounts c = store.Counts();
   EXPECT_EQ(c.live, 100u);
   EXPECT_GE(c.memory_bytes, 100u * 1001 * sizeof(float));
   EXPECT_LT(c.memory_bytes, 100u * (1001 * sizeof(float) + 1024));
-  store.Update("", "m", "last", 1, false, t0 + seconds(61), Step);  // the 100 expire
+  store.Update("", "m", "last", 1, {}, t0 + seconds(61), Step);  // the 100 expire
   EXPECT_EQ(store.Counts().live, 1u);
   EXPECT_LT(store.Counts().memory_bytes, 1024u);
 }
@@ -126,7 +126,7 @@ TEST(SessionStoreTest, ConcurrentUpdates) {
   for (int t = 0; t < kThreads; ++t) {
     threads.emplace_back([&store, t] {
       for (int f = 0; f < kFrames; ++f) {
-        store.Update("", "m", std::to_string((t + f) % kSessions), 1, false, Clock::now(),
+        store.Update("", "m", std::to_string((t + f) % kSessions), 1, {}, Clock::now(),
                      [](SequenceState* s) { ++s->frames; });
       }
     });
@@ -134,7 +134,7 @@ TEST(SessionStoreTest, ConcurrentUpdates) {
   for (auto& th : threads) th.join();
   uint32_t total = 0;
   for (int s = 0; s < kSessions; ++s) {
-    store.Update("", "m", std::to_string(s), 1, false, Clock::now(),
+    store.Update("", "m", std::to_string(s), 1, {}, Clock::now(),
                  [&](SequenceState* state) { total += state->frames; });
   }
   EXPECT_EQ(total, static_cast<uint32_t>(kThreads * kFrames));

@@ -5,8 +5,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
+#include <tuple>
 
 #include "client/client.h"
+#include "common/map/crc32.h"
+#include "common/map/map_io.h"
+#include "proto/wire.h"
 #include "tests/server/server_test_support.h"
 
 namespace sceneloc {
@@ -113,22 +118,48 @@ TEST_F(SessionTest, ResetStartsAgain) {
   EXPECT_NE(refused.status().message().find("INVALID_ARGUMENT"), std::string::npos);
 }
 
-// A map reload mid-session (a new generation) restarts the session: MAP_RELOADED, frames
-// from 1.
+// A map reload mid-session (a new generation) restarts the sessions the server keeps:
+// MAP_RELOADED, frames from 1 (a client that carries no state).
 TEST_F(SessionTest, MapReloadRestartsTheSession) {
-  for (int i = 0; i < 3; ++i) ASSERT_TRUE(Frame(client_.get(), i, "r").ok());
+  const auto frame = [&](int i) {
+    std::unique_ptr<Client> fresh = Connect();  // no carried state: the server's alone
+    return Frame(fresh.get(), i, "r");
+  };
+  for (int i = 0; i < 3; ++i) ASSERT_TRUE(frame(i).ok());
   auto reloaded = client_->Reload(kTestMapName);
   ASSERT_TRUE(reloaded.ok()) << reloaded.status().ToString();
   EXPECT_EQ(reloaded->map().version().generation(), 2u);
-  auto reply = Frame(client_.get(), 3, "r");
+  auto reply = frame(3);
   ASSERT_TRUE(reply.ok());
   EXPECT_EQ(reply->session().start(), v1::MAP_RELOADED);
   EXPECT_EQ(reply->session().frames(), 1u);
   EXPECT_EQ(reply->map().generation(), 2u);
-  auto next = Frame(client_.get(), 4, "r");
+  auto next = frame(4);
   ASSERT_TRUE(next.ok());
   EXPECT_EQ(next->session().start(), v1::CONTINUED);
   EXPECT_EQ(next->session().frames(), 2u);
+}
+
+// A carried state names the map's content (its checksum), not the reload count: the same
+// file reloaded continues the session; a changed map file restarts it.
+TEST_F(SessionTest, CarriedStateFollowsTheMapsContent) {
+  for (int i = 0; i < 3; ++i) ASSERT_TRUE(Frame(client_.get(), i, "r").ok());
+  ASSERT_TRUE(client_->Reload(kTestMapName).ok());
+  auto same = Frame(client_.get(), 3, "r");
+  ASSERT_TRUE(same.ok());
+  EXPECT_EQ(same->session().start(), v1::CONTINUED);
+  EXPECT_EQ(same->session().frames(), 4u);
+  auto map = LoadMap(dir_.MapPath());
+  ASSERT_TRUE(map.ok());
+  map->provenance.created_utc = "2000-01-01T00:00:00Z";  // other bytes, other checksum
+  ASSERT_TRUE(SaveMap(*map, dir_.MapPath()).ok());
+  auto reloaded = client_->Reload(kTestMapName);
+  ASSERT_TRUE(reloaded.ok());
+  EXPECT_GE(reloaded->map().version().generation(), 3u);
+  auto changed = Frame(client_.get(), 4, "r");
+  ASSERT_TRUE(changed.ok());
+  EXPECT_EQ(changed->session().start(), v1::MAP_RELOADED);
+  EXPECT_EQ(changed->session().frames(), 1u);
 }
 
 // Over-long, empty-with-reset and non-printable session names are INVALID_ARGUMENT with the
@@ -156,6 +187,96 @@ TEST_F(SessionTest, StatsCountSessions) {
   EXPECT_GE(stats->session_memory_bytes(), 5u * (kTestTourLocations + 1) * sizeof(float));
 }
 
+// A localise request of session `session` for tour location `i`, carrying `state`.
+v1::Request CarriedFrame(int i, const std::string& session, const std::string& state) {
+  v1::Request request;
+  v1::LocaliseRequest* localise = request.mutable_localise();
+  localise->set_map(kTestMapName);
+  localise->set_session(session);
+  localise->set_session_state(state);
+  EncodeFeatureSet(test::TourFeatures(i), DescriptorEncoding::kFloat32,
+                   localise->mutable_features());
+  return request;
+}
+
+// The fleet case: a session's frames answered by two server processes serving the same map
+// file. The second server has never seen the session; with the state of the first's last
+// reply it continues it exactly as the first would have.
+TEST_F(SessionTest, AnotherServerContinuesFromTheCarriedState) {
+  std::vector<v1::SessionAnswer> one_server;
+  for (int i = 0; i < 7; ++i) {
+    auto reply = Frame(client_.get(), i, "walk");
+    ASSERT_TRUE(reply.ok());
+    one_server.push_back(reply->session());
+  }
+  ServerOptions options = test::TestServerOptions();
+  options.maps_dir = dir_.path();
+  test::TestServer second = test::StartTestServerOnDir(options);
+  ASSERT_FALSE(HasFatalFailure());
+  auto other = Client::Connect(second.endpoint);
+  ASSERT_TRUE(other.ok());
+  std::string state;
+  for (int i = 0; i < 6; ++i) {
+    auto reply = Frame(client_.get(), i, "walk-2");
+    ASSERT_TRUE(reply.ok());
+    state = reply->session().state();
+  }
+  EXPECT_EQ(state.size(), 28u + 4 * (kTestTourLocations + 1));
+  auto reply = (*other)->Call(CarriedFrame(6, "walk-2", state));
+  ASSERT_TRUE(reply.ok());
+  ASSERT_EQ(reply->status(), v1::OK) << reply->error();
+  const v1::SessionAnswer& s = reply->localise().session();
+  EXPECT_EQ(s.start(), v1::CONTINUED);
+  EXPECT_EQ(s.frames(), 7u);
+  EXPECT_EQ(s.location(), one_server[6].location());
+  EXPECT_NEAR(s.probability(), one_server[6].probability(), 1e-4);
+}
+
+// A corrupt state, or one of another session, is INVALID_ARGUMENT saying so; the session
+// itself is unharmed and goes on.
+TEST_F(SessionTest, BadCarriedStatesAreRefused) {
+  std::string state;
+  for (int i = 0; i < 3; ++i) {
+    auto reply = Frame(client_.get(), i, "mine");
+    ASSERT_TRUE(reply.ok());
+    state = reply->session().state();
+  }
+  std::string flipped = state;
+  flipped[40] = static_cast<char>(flipped[40] ^ 1);
+  for (const auto& [session, bytes, needle] :
+       {std::tuple<std::string, std::string, std::string>{"mine", flipped, "checksum"},
+        {"mine", "garbage", "not a state"},
+        {"mine", state.substr(0, state.size() / 2), "not a state"},
+        {"theirs", state, "another session"}}) {
+    auto reply = client_->Call(CarriedFrame(3, session, bytes));
+    ASSERT_TRUE(reply.ok());
+    EXPECT_EQ(reply->status(), v1::INVALID_ARGUMENT);
+    EXPECT_NE(reply->error().find(needle), std::string::npos) << reply->error();
+  }
+  auto next = Frame(client_.get(), 3, "mine");
+  ASSERT_TRUE(next.ok());
+  EXPECT_EQ(next->session().frames(), 4u);
+}
+
+// A state made against another map (another checksum) starts the session again, with the
+// reason.
+TEST_F(SessionTest, CarriedStateOfAnotherMapStartsAgain) {
+  std::string state;
+  for (int i = 0; i < 3; ++i) {
+    auto reply = Frame(client_.get(), i, "r");
+    ASSERT_TRUE(reply.ok());
+    state = reply->session().state();
+  }
+  state[4] = static_cast<char>(state[4] ^ 1);  // the map checksum field, then re-seal it
+  const uint32_t crc = Crc32(state.data(), state.size() - 4);
+  std::memcpy(&state[state.size() - 4], &crc, 4);
+  auto reply = client_->Call(CarriedFrame(3, "r", state));
+  ASSERT_TRUE(reply.ok());
+  ASSERT_EQ(reply->status(), v1::OK) << reply->error();
+  EXPECT_EQ(reply->localise().session().start(), v1::MAP_RELOADED);
+  EXPECT_EQ(reply->localise().session().frames(), 1u);
+}
+
 class BoundedSessionTest : public SessionTest {
  protected:
   void SetUp() override {}
@@ -178,7 +299,14 @@ TEST_F(BoundedSessionTest, LeastRecentlyUsedIsEvicted) {
   ASSERT_TRUE(a.ok() && b.ok());
   EXPECT_EQ(a->session().start(), v1::CONTINUED);
   EXPECT_EQ(a->session().frames(), 3u);
-  EXPECT_EQ(b->session().start(), v1::NEW);
+  // b was dropped by the server, but its client sent back its state: it goes on.
+  EXPECT_EQ(b->session().start(), v1::CONTINUED);
+  EXPECT_EQ(b->session().frames(), 2u);
+  // A client that does not carry the state (a fresh one) finds c dropped: a new session.
+  std::unique_ptr<Client> fresh = Connect();
+  auto c = Frame(fresh.get(), 1, "c");
+  ASSERT_TRUE(c.ok());
+  EXPECT_EQ(c->session().start(), v1::NEW);
   auto stats = client_->Stats();
   ASSERT_TRUE(stats.ok());
   EXPECT_EQ(stats->sessions(), 2u);
@@ -194,7 +322,8 @@ TEST_F(BoundedSessionTest, IdleSessionExpires) {
   Start(options);
   ASSERT_FALSE(HasFatalFailure());
   ASSERT_TRUE(Frame(client_.get(), 0, "r").ok());
-  auto again = Frame(client_.get(), 1, "r");
+  std::unique_ptr<Client> fresh = Connect();  // carries no state: sees what the server kept
+  auto again = Frame(fresh.get(), 1, "r");
   ASSERT_TRUE(again.ok());
   EXPECT_EQ(again->session().start(), v1::NEW);
   EXPECT_EQ(again->session().frames(), 1u);

@@ -1,0 +1,47 @@
+// A session's filter state as bytes (proto SessionAnswer.state, LocaliseRequest.session_state):
+// what lets the next frame of a session be answered by another server process (a fleet
+// behind one address, issue 12) or by this one after it forgot the session (restart,
+// eviction, expiry). The client sends back the state of its last reply; sceneloc::Client
+// does it by itself.
+//
+// Layout (little-endian): "SLS1", uint32 map checksum (the map file's CRC-32: the same in
+// every process serving that file), uint32 locations N, uint32 frames, uint64 session hash
+// (FNV-1a of the client's key name and the session name), N + 1 float32 belief, uint32
+// CRC-32 of everything before it. 28 + 4 (N + 1) bytes: 832 at 200 locations.
+//
+// The bytes come from the client: untrusted. ParseSessionToken checks size, checksum,
+// finite non-negative belief with a positive sum, and which session it belongs to.
+// Nothing in it can reach another session's state: a token only ever seeds the session
+// that sent it.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "common/matching/sequence_filter.h"
+#include "common/util/status.h"
+
+namespace sceneloc {
+
+// Who a token belongs to: the session (client key name and session name) and the map.
+struct TokenOwner {
+  std::string client;
+  std::string session;
+  uint32_t map_checksum = 0;
+  int num_locations = 0;
+};
+
+std::string SerializeSessionToken(const SequenceState& state, const TokenOwner& owner);
+
+enum class TokenFit {
+  kFits,      // state filled: continue from it
+  kOtherMap,  // a token of another map (or another version of it): start again
+};
+
+// InvalidArgument naming the problem for a token that is corrupt (size, checksum, values)
+// or belongs to another session. A well-formed token of another map or map version is not
+// an error: kOtherMap, and the session starts again.
+StatusOr<TokenFit> ParseSessionToken(const std::string& bytes, const TokenOwner& owner,
+                                     SequenceState* state);
+
+}  // namespace sceneloc
