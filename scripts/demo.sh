@@ -3,8 +3,9 @@
 # tour and a laterally shifted test pass, trains a landmark map, starts sceneloc-server on
 # a free local port, localises every test frame through the `sceneloc` client, prints the
 # answers (location, LOCALISED or UNKNOWN, confidence), the match rate (answer within ±1 of
-# the true location) and how many answers were confident enough to act on, and stops the
-# server.
+# the true location) and how many answers were confident enough to act on, sends the same
+# frames again as one robot's session (README "Robot sessions") and shows the session's
+# answers, and stops the server.
 # Usage: scripts/demo.sh [WORK_DIR]   (default: ./demo-out)
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -62,17 +63,28 @@ status=0
   >"$answers" || status=$?
 sed "s|$work/test/||" "$answers"
 # Image007.jpg is location 7; the answer is the second column.
-awk -F'\t' -v tolerance=1 '
+score() {
+  awk -F'\t' -v tolerance=1 '
   { n++
     name = $1; sub(/.*\//, "", name); gsub(/[^0-9]/, "", name)
     if ($2 ~ /^[0-9]+$/ && ($2 - name <= tolerance && name - $2 <= tolerance)) hits++ }
   $4 == "LOCALISED" { localised++ }
   END { printf "match rate (within ±%d): %d / %d = %.2f; LOCALISED (confidence >= the server'"'"'s min_confidence): %d / %d\n",
                tolerance, hits, n, n ? hits / n : 0, localised, n }
-' "$answers"
+' "$1"
+}
+grep -v $'\tsession ' "$answers" >"$answers.single"
+score "$answers.single"
 ((status == 0)) || echo "demo: some requests got an error reply (see above)" >&2
 
-echo "== 5. stopping the server"
+echo "== 5. the same frames as one robot's session: each answer filtered with the frames before it"
+"$build/client/sceneloc" localise --server "$endpoint" --map demo --session demo-robot \
+  --reset-session "$work"/test/*.jpg >"$answers" || status=$?
+grep $'\tsession ' "$answers" | sed "s|$work/test/||" | tail -n 5
+grep $'\tsession ' "$answers" | cut -f1,3- >"$answers.session"
+score "$answers.session"
+
+echo "== 6. stopping the server"
 stop_server
 tail -n 2 "$log"
 exit "$status"
