@@ -3,7 +3,7 @@
 // fuzz_handler), OUT/jpeg and OUT/map:
 //   request: list_maps, stats, reload_map, localise with a JPEG, and with feature sets
 //            (float32 and uint8 descriptors, with and without the holistic descriptor),
-//            all naming the fuzz map "m";
+//            also as a session (named, reset, carrying a state), all naming the fuzz map "m";
 //   jpeg:    generated tour frames (baseline, progressive, grey, small), and up to 4
 //            frames of each dev set in DATA_DIR (../shared/data) when it is there;
 //   map:     the fuzz map as a whole file and as a payload, and V1_MAP (a format-1 map)
@@ -80,6 +80,14 @@ void WriteRequestSeeds(const fuzz::FuzzWorld& world, const fs::path& dir) {
       write(r);
     }
   }
+  // A robot's session: named, reset, and with a carried state (one that fails its checks).
+  r.mutable_localise()->set_session("robot-1");
+  write(r);
+  r.mutable_localise()->set_reset_session(true);
+  write(r);
+  r.mutable_localise()->set_reset_session(false);
+  r.mutable_localise()->set_session_state(std::string("SLS1") + std::string(80, '\x01'));
+  write(r);
 }
 
 void WriteJpegSeeds(const fuzz::FuzzWorld& world, const std::string& data_dir,
