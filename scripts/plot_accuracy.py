@@ -10,8 +10,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-METHODS = [("sceneloc", "#1f77b4"), ("paper", "#9467bd"), ("baseline", "#7f7f7f"),
-           ("baseline+ransac", "#bcbd22")]
+METHODS = [("sceneloc", "#1f77b4"), ("session", "#17becf"), ("paper", "#9467bd"),
+           ("baseline", "#7f7f7f"), ("baseline+ransac", "#bcbd22")]
 
 
 def main(out):

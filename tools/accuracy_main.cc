@@ -1,5 +1,6 @@
 // sceneloc-accuracy: the accuracy suite (tools/eval/accuracy_suite.h) in one run. Every
-// development set, four methods on the same features, one table on stdout, and
+// development set, four methods on the same features (and ours as a session), one table on
+// stdout, and
 //   OUT/accuracy.json   every figure, per set and method, with the settings and machine
 //   OUT/accuracy.csv    one row per set and method
 // (scripts/accuracy.sh adds OUT/accuracy.png). Run from the repository root:
@@ -35,6 +36,7 @@ struct Row {
 
 std::vector<Row> Rows(const sl::SetResult& r) {
   return {{"sceneloc", &r.summary.ours},
+          {"session", &r.session},
           {"paper", &r.paper},
           {"baseline", &r.summary.baseline},
           {"baseline+ransac", &r.summary.reranked}};
@@ -56,6 +58,7 @@ nlohmann::json QueriesJson(const sl::SetResult& r) {
     out.push_back({{"query", o.name},
                    {"truth", o.truth},
                    {"sceneloc", {o.ours.predicted, o.ours.confidence}},
+                   {"session", {r.session_outcomes[q].predicted, r.session_outcomes[q].confidence}},
                    {"paper", {r.paper_outcomes[q].predicted, r.paper_outcomes[q].confidence}},
                    {"baseline", {o.baseline.predicted, o.baseline.confidence}},
                    {"baseline+ransac", {o.reranked.predicted, o.reranked.confidence}}});

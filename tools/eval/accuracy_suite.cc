@@ -13,6 +13,7 @@
 #include "common/util/thread_pool.h"
 #include "common/util/timer.h"
 #include "tools/eval/feature_cache.h"
+#include "tools/eval/sequence_eval.h"
 
 namespace sceneloc {
 namespace {
@@ -239,6 +240,12 @@ StatusOr<SetResult> RunSet(const SuiteSet& set, const SuiteSettings& settings,
   result.summary = Summarise(result.outcomes, /*with_baseline=*/true,
                              {settings.train.tolerance, settings.match.min_confidence});
   result.paper = paper.summary;
+  const SequenceRun run = RunSequence(result.outcomes, ours.map, settings.match.sequence,
+                                      KidnapOrder(result.outcomes.size(), 1, 0));
+  for (const QueryOutcome& o : run.filtered) result.session_outcomes.push_back(o.ours);
+  result.session =
+      SummariseMethod(run.filtered, Method::kOurs,
+                      {settings.train.tolerance, settings.match.sequence.min_confidence});
   return result;
 }
 

@@ -1,7 +1,8 @@
 // The accuracy suite: every development data set, each localised by our default settings,
 // by the paper as printed, by the voting baseline and by the baseline re-ranked by RANSAC
-// inliers, all four on the same features in one run. sceneloc-accuracy prints and writes
-// its results; the real-data floor tests run slices of it.
+// inliers, all four on the same features in one run, and ours again with the queries in
+// file order as one robot's session (sequence_filter.h). sceneloc-accuracy prints and
+// writes its results; the real-data floor tests run slices of it.
 //
 // A set is a tour folder, a query folder (truth: the tour image of the same file name) and
 // optionally a change applied to every query image first (a generated variant: a smaller
@@ -57,6 +58,10 @@ struct SetResult {
   MethodSummary paper;                 // the paper as printed
   std::vector<QueryOutcome> outcomes;  // per query (ours, baselines)
   std::vector<MethodOutcome> paper_outcomes;
+  // Ours with the queries in file order as one robot's session (sequence_eval.h), judged
+  // at the session's min_confidence.
+  MethodSummary session;
+  std::vector<MethodOutcome> session_outcomes;
   // Frames of set.negative_dirs: how many our map would LOCALISE, and their highest
   // confidence.
   size_t negatives = 0;
