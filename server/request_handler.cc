@@ -207,8 +207,10 @@ Status RequestHandler::HandleLocalise(const v1::LocaliseRequest& request,
                            std::to_string(request.min_confidence()));
   }
   if (!request.session().empty()) SCENELOC_RETURN_IF_ERROR(CheckSessionName(request.session()));
-  if (request.session().empty() && request.reset_session()) {
-    return InvalidArgument("reset_session needs a session name");
+  if (request.session().empty() && (request.reset_session() || !request.session_state().empty())) {
+    return InvalidArgument(
+        std::string(request.reset_session() ? "reset_session" : "session_state") +
+        " needs a session name");
   }
   // The one snapshot this request uses from here to its reply.
   const std::shared_ptr<const LoadedMap> map = registry_->Get(request.map());
@@ -280,12 +282,13 @@ void RequestHandler::UpdateSession(const v1::LocaliseRequest& request, const std
   SequenceAnswer answer;
   v1::SessionAnswer* out = reply->mutable_session();
   const TokenOwner owner = TokenOwnerOf(client, request, map);
-  const SessionStart start =
-      sessions_->Update(client, map.name, request.session(), map.generation, seed, Clock::now(),
-                        [&](SequenceState* state) {
-                          answer = map.sequence->Update(evidence, state);
-                          out->set_state(SerializeSessionToken(*state, owner));
-                        });
+  SequenceState after;  // a copy, serialised outside the store's lock
+  const SessionStart start = sessions_->Update(client, map.name, request.session(), map.generation,
+                                               seed, Clock::now(), [&](SequenceState* state) {
+                                                 answer = map.sequence->Update(evidence, state);
+                                                 after = *state;
+                                               });
+  out->set_state(SerializeSessionToken(after, owner));
   out->set_name(request.session());
   out->set_location(answer.location);
   out->set_image_name(map.map.image_names[answer.location]);

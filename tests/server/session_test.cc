@@ -20,6 +20,18 @@ namespace {
 using test::kTestMapName;
 using test::kTestTourLocations;
 
+// A localise request of session `session` for tour location `i`, carrying `state`.
+v1::Request CarriedFrame(int i, const std::string& session, const std::string& state) {
+  v1::Request request;
+  v1::LocaliseRequest* localise = request.mutable_localise();
+  localise->set_map(kTestMapName);
+  localise->set_session(session);
+  localise->set_session_state(state);
+  EncodeFeatureSet(test::TourFeatures(i), DescriptorEncoding::kFloat32,
+                   localise->mutable_features());
+  return request;
+}
+
 class SessionTest : public ::testing::Test {
  protected:
   void Start(const ServerOptions& options) {
@@ -115,7 +127,14 @@ TEST_F(SessionTest, ResetStartsAgain) {
   nameless.reset_session = true;
   auto refused = client_->Localise(kTestMapName, test::TourFeatures(0), nameless);
   ASSERT_FALSE(refused.ok());
-  EXPECT_NE(refused.status().message().find("INVALID_ARGUMENT"), std::string::npos);
+  EXPECT_NE(refused.status().message().find("INVALID_ARGUMENT: reset_session needs a session"),
+            std::string::npos)
+      << refused.status().message();
+  auto stateless = client_->Call(CarriedFrame(0, "", reply->session().state()));
+  ASSERT_TRUE(stateless.ok());
+  EXPECT_EQ(stateless->status(), v1::INVALID_ARGUMENT);
+  EXPECT_NE(stateless->error().find("session_state needs a session"), std::string::npos)
+      << stateless->error();
 }
 
 // A map reload mid-session (a new generation) restarts the sessions the server keeps:
@@ -185,18 +204,6 @@ TEST_F(SessionTest, StatsCountSessions) {
   ASSERT_TRUE(stats.ok());
   EXPECT_EQ(stats->sessions(), 5u);
   EXPECT_GE(stats->session_memory_bytes(), 5u * (kTestTourLocations + 1) * sizeof(float));
-}
-
-// A localise request of session `session` for tour location `i`, carrying `state`.
-v1::Request CarriedFrame(int i, const std::string& session, const std::string& state) {
-  v1::Request request;
-  v1::LocaliseRequest* localise = request.mutable_localise();
-  localise->set_map(kTestMapName);
-  localise->set_session(session);
-  localise->set_session_state(state);
-  EncodeFeatureSet(test::TourFeatures(i), DescriptorEncoding::kFloat32,
-                   localise->mutable_features());
-  return request;
 }
 
 // The fleet case: a session's frames answered by two server processes serving the same map
