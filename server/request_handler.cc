@@ -1,5 +1,6 @@
 #include "server/request_handler.h"
 
+#include <algorithm>
 #include <ctime>
 #include <exception>
 #include <filesystem>
@@ -72,10 +73,19 @@ StatusOr<FeatureSet> ExtractJpeg(const std::string& jpeg, const LoadedMap& map,
                             std::to_string(budget->capacity()) +
                             ", held by other decodes) until the request's deadline");
   }
-  SCENELOC_ASSIGN_OR_RETURN(const cv::Mat image, DecodeImage(jpeg, limits.max_image_side));
+  // Decoded straight to grey at the smallest size that still covers the map's frame, in
+  // either orientation: the decoder applies an EXIF rotation the header does not show.
+  const int reduction = std::min(
+      DecodeReduction(dims.width, dims.height, map.map.QueryTarget(dims.width, dims.height)),
+      DecodeReduction(dims.width, dims.height, map.map.QueryTarget(dims.height, dims.width)));
+  SCENELOC_ASSIGN_OR_RETURN(const cv::Mat image,
+                            DecodeGray(jpeg, limits.max_image_side, reduction));
   timings->set_decode_ms(watch.Milliseconds());
   watch.Reset();
-  auto features = map.extractor->Extract(image, map.map.QueryTarget(image.cols, image.rows));
+  const bool turned = (image.cols > image.rows) != (dims.width > dims.height);
+  auto features =
+      map.extractor->Extract(image, turned ? map.map.QueryTarget(dims.height, dims.width)
+                                           : map.map.QueryTarget(dims.width, dims.height));
   timings->set_extract_ms(watch.Milliseconds());
   return features;
 }

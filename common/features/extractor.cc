@@ -2,10 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <vector>
 
 namespace sceneloc {
 
@@ -54,6 +56,9 @@ StatusOr<FeatureSet> FeatureExtractor::ExtractTour(const cv::Mat& image) const {
 
 namespace {
 
+// Scale levels per pyramid octave: OpenCV's default and Lowe's, fixed for every map.
+constexpr int kSiftOctaveLayers = 3;
+
 // L2-normalises each row; an all-zero row stays zero.
 void NormaliseRows(DescriptorMatrix* m) {
   for (Eigen::Index i = 0; i < m->rows(); ++i) {
@@ -69,6 +74,52 @@ void RootRows(DescriptorMatrix* m) {
     const float l1 = m->row(i).cwiseAbs().sum();
     if (l1 > 0) m->row(i) = (m->row(i).cwiseAbs() / l1).cwiseSqrt();
   }
+}
+
+// OpenCV's SIFT packs a keypoint's pyramid octave into the low byte of KeyPoint::octave
+// (signed: -1 is the doubled base image), its layer in the octave into the next byte and
+// a sub-layer offset above.
+int UnpackOctave(const cv::KeyPoint& k) { return static_cast<int8_t>(k.octave & 0xff); }
+
+// The highest octave a context descriptor is read from in a frame of w x h: the one whose
+// image is still at least 8 pixels on its short side.
+int TopContextOctave(int w, int h) {
+  int octave = 0;
+  while ((std::min(w, h) >> (octave + 1)) >= 8) ++octave;
+  return octave;
+}
+
+// The context keypoint of `k`: the same point at `scale` times its size (the window the
+// paper asks for), read off a higher octave of the pyramid. A SIFT keypoint's size doubles
+// per octave, so one octave up (at the paper's scale 2) the window covers the same number
+// of pixels as the local one: a quarter of what the same window costs on k's own octave,
+// where the extractor before issue 10 read it. Of the octave's images, the least blurred
+// (layer 0: the blur of k's octave's top layer, halved in resolution) keeps the blur
+// closest to that old descriptor's; the layer of k's own blur one octave up measured
+// slightly worse (docs/results.md, "One pass of extraction"). Octaves up = floor(log2
+// scale); the octave stays at most `top` (above it the image is too small to describe).
+cv::KeyPoint ContextKeypoint(const cv::KeyPoint& k, double scale, int top) {
+  cv::KeyPoint wide = k;
+  wide.size = static_cast<float>(k.size * scale);
+  const int own = UnpackOctave(k);
+  const int up =
+      std::max(0, std::min(static_cast<int>(std::floor(std::log2(scale) + 1e-9)), top - own));
+  const int layer = std::max(0, ((k.octave >> 8) & 0xff) - kSiftOctaveLayers * up);
+  wide.octave = (k.octave & ~0xffff) | ((layer & 0xff) << 8) | ((own + up) & 0xff);
+  return wide;
+}
+
+// The indices of the at most max_features (0 = all) strongest keypoints, in detection
+// order. SIFT's own cap keeps ties at the limit; this one is exact and deterministic.
+std::vector<int> StrongestFirst(const std::vector<cv::KeyPoint>& k, int max_features) {
+  std::vector<int> order(k.size());
+  for (size_t i = 0; i < k.size(); ++i) order[i] = static_cast<int>(i);
+  if (max_features <= 0 || static_cast<int>(k.size()) <= max_features) return order;
+  std::stable_sort(order.begin(), order.end(),
+                   [&k](int a, int b) { return k[a].response > k[b].response; });
+  order.resize(max_features);
+  std::sort(order.begin(), order.end());
+  return order;
 }
 
 class SiftExtractor final : public FeatureExtractor {
@@ -121,29 +172,30 @@ class SiftExtractor final : public FeatureExtractor {
       gray = equalised;
     }
     // cv::SIFT holds per-call scratch state, so each call makes its own (cheap).
-    auto sift = cv::SIFT::create(options_.max_features, 3, options_.contrast_threshold,
-                                 options_.edge_threshold, options_.sigma);
+    auto sift =
+        cv::SIFT::create(options_.max_features, kSiftOctaveLayers, options_.contrast_threshold,
+                         options_.edge_threshold, options_.sigma);
+    // Detection and the local descriptors from one pyramid: exactly plain SIFT.
     std::vector<cv::KeyPoint> detected;
-    sift->detect(gray, detected);
-    if (options_.max_features > 0 && static_cast<int>(detected.size()) > options_.max_features) {
-      // SIFT's own cap keeps ties beyond the limit; enforce it exactly.
-      cv::KeyPointsFilter::retainBest(detected, options_.max_features);
-      detected.resize(options_.max_features);
-    }
-    // Local and context keypoints in one compute call: the Gaussian pyramid is built
-    // once and both descriptors are read off it.
-    const size_t n = detected.size();
-    std::vector<cv::KeyPoint> both(detected);
-    both.reserve(2 * n);
-    for (size_t i = 0; i < n; ++i) {
-      cv::KeyPoint wide = detected[i];
-      wide.size = static_cast<float>(wide.size * options_.context_scale);
-      both.push_back(wide);
-    }
-    cv::Mat descriptors;
-    sift->compute(gray, both, descriptors);
-    // SIFT::compute keeps provided keypoints one-to-one; check rather than assume.
-    CV_Assert(both.size() == 2 * n && descriptors.rows == static_cast<int>(2 * n));
+    cv::Mat local;
+    sift->detectAndCompute(gray, cv::noArray(), detected, local);
+    // detectAndCompute keeps keypoints and descriptor rows one-to-one; check, not assume.
+    CV_Assert(local.rows == static_cast<int>(detected.size()));
+    const std::vector<int> kept = StrongestFirst(detected, options_.max_features);
+    const size_t n = kept.size();
+    // The context descriptors: each keypoint at context_scale times its size, read off the
+    // pyramid octave that holds that scale (ContextKeypoint). Their pyramid starts at the
+    // working frame itself (no keypoint is below octave 0 any more), a quarter of the
+    // pixels of the detection pyramid's doubled base, so the second pass costs the
+    // descriptors and little else.
+    std::vector<cv::KeyPoint> wide;
+    wide.reserve(n);
+    const int top = TopContextOctave(gray.cols, gray.rows);
+    for (const int i : kept)
+      wide.push_back(ContextKeypoint(detected[i], options_.context_scale, top));
+    cv::Mat context;
+    if (n > 0) sift->compute(gray, wide, context);
+    CV_Assert(wide.size() == n && context.rows == static_cast<int>(n));
 
     FeatureSet set;
     set.image_width = gray.cols;
@@ -151,14 +203,14 @@ class SiftExtractor final : public FeatureExtractor {
     set.keypoints.resize(n);
     set.local.resize(static_cast<Eigen::Index>(n), kDescriptorSize);
     set.context.resize(static_cast<Eigen::Index>(n), kDescriptorSize);
-    for (size_t i = 0; i < n; ++i) {
-      const cv::KeyPoint& k = detected[i];
-      set.keypoints[i] = {k.pt.x, k.pt.y, k.size, k.angle, k.response, k.octave};
-      const float* local = descriptors.ptr<float>(static_cast<int>(i));
-      const float* context = descriptors.ptr<float>(static_cast<int>(n + i));
-      std::copy(local, local + kDescriptorSize, set.local.row(static_cast<Eigen::Index>(i)).data());
-      std::copy(context, context + kDescriptorSize,
-                set.context.row(static_cast<Eigen::Index>(i)).data());
+    for (size_t j = 0; j < n; ++j) {
+      const cv::KeyPoint& k = detected[kept[j]];
+      set.keypoints[j] = {k.pt.x, k.pt.y, k.size, k.angle, k.response, k.octave};
+      const float* l = local.ptr<float>(kept[j]);
+      const float* c = context.ptr<float>(static_cast<int>(j));
+      const auto row = static_cast<Eigen::Index>(j);
+      std::copy(l, l + kDescriptorSize, set.local.row(row).data());
+      std::copy(c, c + kDescriptorSize, set.context.row(row).data());
     }
     if (options_.root_sift) {
       RootRows(&set.local);
@@ -206,12 +258,14 @@ StatusOr<cv::Mat> ReadImageFile(const std::string& path) {
   return image;
 }
 
-StatusOr<cv::Mat> DecodeImage(const std::string& bytes, int max_image_side) {
+namespace {
+
+StatusOr<cv::Mat> Decode(const std::string& bytes, int max_image_side, int flags) {
   if (bytes.empty()) return InvalidArgument("image bytes are empty");
   cv::Mat image;
   try {
     const cv::Mat buffer(1, static_cast<int>(bytes.size()), CV_8U, const_cast<char*>(bytes.data()));
-    image = cv::imdecode(buffer, cv::IMREAD_COLOR);
+    image = cv::imdecode(buffer, flags);
   } catch (const cv::Exception& e) {
     return InvalidArgument(std::string("image bytes could not be decoded: ") + e.what());
   }
@@ -221,6 +275,40 @@ StatusOr<cv::Mat> DecodeImage(const std::string& bytes, int max_image_side) {
                              " pixels per side");
   }
   return image;
+}
+
+}  // namespace
+
+StatusOr<cv::Mat> DecodeImage(const std::string& bytes, int max_image_side) {
+  return Decode(bytes, max_image_side, cv::IMREAD_COLOR);
+}
+
+int DecodeReduction(int width, int height, const ExtractionTarget& target) {
+  int reduction = 1;
+  if (target.width < kMinImageSide || target.height < kMinImageSide) return reduction;
+  // libjpeg rounds a scaled size up, so width / (2 * reduction) rounded down is a safe
+  // lower bound for the next step.
+  while (reduction < 8 && width / (2 * reduction) >= target.width &&
+         height / (2 * reduction) >= target.height) {
+    reduction *= 2;
+  }
+  return reduction;
+}
+
+StatusOr<cv::Mat> DecodeGray(const std::string& bytes, int max_image_side, int reduction) {
+  switch (reduction) {
+    case 1:
+      return Decode(bytes, max_image_side, cv::IMREAD_GRAYSCALE);
+    case 2:
+      return Decode(bytes, max_image_side, cv::IMREAD_REDUCED_GRAYSCALE_2);
+    case 4:
+      return Decode(bytes, max_image_side, cv::IMREAD_REDUCED_GRAYSCALE_4);
+    case 8:
+      return Decode(bytes, max_image_side, cv::IMREAD_REDUCED_GRAYSCALE_8);
+    default:
+      return InvalidArgument("decode reduction must be 1, 2, 4 or 8, not " +
+                             std::to_string(reduction));
+  }
 }
 
 }  // namespace sceneloc

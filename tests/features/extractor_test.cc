@@ -2,6 +2,11 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+#include <opencv2/features2d.hpp>
+#include <opencv2/imgproc.hpp>
+
 #include "common/synthetic/tour_generator.h"
 
 namespace sceneloc {
@@ -64,6 +69,169 @@ TEST(ExtractorTest, ExtractsInTheTargetFrame) {
   EXPECT_NEAR(f->context.row(0).norm(), 1.0f, 1e-4);
   EXPECT_TRUE((f->holistic_grid == HolisticGrid{16, 9, 12}));
   EXPECT_EQ(f->holistic.size(), 16u * 9 * 12);
+}
+
+// A generated 960x540 tour frame and its 480x270 grey working frame, as the extractor
+// makes it.
+struct Frame {
+  cv::Mat image;
+  cv::Mat gray;
+};
+
+Frame TourFrame() {
+  TourOptions tour;
+  tour.num_locations = 1;
+  auto jpegs = RenderTourJpegs(tour, kTrainingPass);
+  EXPECT_TRUE(jpegs.ok());
+  auto image = DecodeImage((*jpegs)[0], 4096);
+  EXPECT_TRUE(image.ok());
+  Frame f{*image, {}};
+  cv::Mat gray;
+  cv::cvtColor(f.image, gray, cv::COLOR_BGR2GRAY);
+  cv::resize(gray, f.gray, cv::Size(480, 270), 0, 0, cv::INTER_AREA);
+  return f;
+}
+
+float Cosine(const float* a, const float* b) {
+  double ab = 0, aa = 0, bb = 0;
+  for (int i = 0; i < kDescriptorSize; ++i) {
+    ab += a[i] * b[i];
+    aa += a[i] * a[i];
+    bb += b[i] * b[i];
+  }
+  return aa > 0 && bb > 0 ? static_cast<float>(ab / std::sqrt(aa * bb)) : 0.f;
+}
+
+// The keypoints and local descriptors are exactly plain SIFT's (detectAndCompute on the
+// working frame, the floor of issue 10): one pyramid, nothing changed in meaning.
+TEST(ExtractorTest, LocalDescriptorsArePlainSift) {
+  const Frame frame = TourFrame();
+  const ExtractorOptions o;
+  auto f = FeatureExtractor::Create(o)->ExtractTour(frame.image);
+  ASSERT_TRUE(f.ok()) << f.status().ToString();
+  auto sift = cv::SIFT::create(o.max_features, 3, o.contrast_threshold, o.edge_threshold, o.sigma);
+  std::vector<cv::KeyPoint> k;
+  cv::Mat d;
+  sift->detectAndCompute(frame.gray, cv::noArray(), k, d);
+  ASSERT_GT(f->size(), 100);
+  ASSERT_LE(f->size(), static_cast<int>(k.size()));
+  // Each of ours is one of SIFT's, at the same point, scale and angle, same descriptor.
+  int same = 0;
+  for (int i = 0; i < f->size(); ++i) {
+    const Keypoint& p = f->keypoints[static_cast<size_t>(i)];
+    for (size_t j = 0; j < k.size(); ++j) {
+      if (k[j].pt.x == p.x && k[j].pt.y == p.y && k[j].size == p.size && k[j].angle == p.angle) {
+        same += Cosine(f->local.row(i).data(), d.ptr<float>(static_cast<int>(j))) > 0.9999f;
+        break;
+      }
+    }
+  }
+  EXPECT_EQ(same, f->size());
+}
+
+// The context descriptor is the paper's: the same point described at twice its size. It is
+// read one octave up (the window at the blur of its own scale) where the old extractor
+// read it on the keypoint's octave; the two agree closely, and both differ from the local
+// descriptor. A wrongly packed octave or a lost scale drops the agreement.
+TEST(ExtractorTest, ContextIsThePointAtTwiceTheSize) {
+  const Frame frame = TourFrame();
+  const ExtractorOptions o;
+  auto f = FeatureExtractor::Create(o)->ExtractTour(frame.image);
+  ASSERT_TRUE(f.ok()) << f.status().ToString();
+  std::vector<cv::KeyPoint> wide;
+  for (const Keypoint& p : f->keypoints) {
+    wide.emplace_back(cv::Point2f(p.x, p.y), p.size * 2, p.angle, p.response, p.octave);
+  }
+  cv::Mat same_octave;
+  cv::SIFT::create(o.max_features, 3, o.contrast_threshold, o.edge_threshold, o.sigma)
+      ->compute(frame.gray, wide, same_octave);
+  ASSERT_EQ(same_octave.rows, f->size());
+  double to_same_octave = 0, to_local = 0;
+  for (int i = 0; i < f->size(); ++i) {
+    to_same_octave += Cosine(f->context.row(i).data(), same_octave.ptr<float>(i));
+    to_local += Cosine(f->context.row(i).data(), f->local.row(i).data());
+  }
+  to_same_octave /= f->size();
+  to_local /= f->size();
+  EXPECT_GT(to_same_octave, 0.85) << "local " << to_local;
+  EXPECT_LT(to_local, to_same_octave - 0.1);
+}
+
+// max_features is exact and keeps the strongest responses.
+TEST(ExtractorTest, KeepsExactlyTheStrongest) {
+  const Frame frame = TourFrame();
+  ExtractorOptions all;
+  all.max_features = 0;
+  ExtractorOptions capped;
+  capped.max_features = 50;
+  auto every = FeatureExtractor::Create(all)->ExtractTour(frame.image);
+  auto few = FeatureExtractor::Create(capped)->ExtractTour(frame.image);
+  ASSERT_TRUE(every.ok() && few.ok());
+  ASSERT_GT(every->size(), 50);
+  ASSERT_EQ(few->size(), 50);
+  std::vector<float> responses;
+  for (const Keypoint& k : every->keypoints) responses.push_back(k.response);
+  std::sort(responses.rbegin(), responses.rend());
+  for (const Keypoint& k : few->keypoints) EXPECT_GE(k.response, responses[49]);
+}
+
+// Frames at the smallest working sizes still extract (the context octave stays inside
+// the small pyramid).
+TEST(ExtractorTest, ExtractsTinyFrames) {
+  const Frame frame = TourFrame();
+  const auto extractor = FeatureExtractor::Create({});
+  for (const cv::Size size : {cv::Size(16, 16), cv::Size(16, 300), cv::Size(40, 23)}) {
+    ExtractionTarget target;
+    target.width = size.width;
+    target.height = size.height;
+    auto f = extractor->Extract(frame.image, target);
+    ASSERT_TRUE(f.ok()) << size << ": " << f.status().ToString();
+    EXPECT_EQ(f->local.rows(), f->context.rows());
+  }
+}
+
+// A JPEG decodes at the largest DCT reduction that still covers the working frame, so the
+// extractor only ever shrinks it.
+TEST(ExtractorTest, DecodeReductionKeepsTheFrameCovered) {
+  ExtractionTarget t;
+  t.width = 480;
+  t.height = 270;
+  EXPECT_EQ(DecodeReduction(960, 540, t), 2);
+  EXPECT_EQ(DecodeReduction(1920, 1080, t), 4);
+  EXPECT_EQ(DecodeReduction(8000, 4500, t), 8);  // never beyond libjpeg's 1/8
+  EXPECT_EQ(DecodeReduction(959, 540, t), 1);    // half would be 479 wide
+  EXPECT_EQ(DecodeReduction(640, 360, t), 1);
+  EXPECT_EQ(DecodeReduction(160, 120, t), 1);  // enlarged, never reduced
+  ExtractionTarget tiny;
+  tiny.width = 8;
+  tiny.height = 8;
+  EXPECT_EQ(DecodeReduction(960, 540, tiny), 1);  // an invalid frame is left to Extract
+}
+
+TEST(ExtractorTest, DecodeGrayAtReducedSize) {
+  TourOptions tour;
+  tour.num_locations = 1;
+  tour.image_width = 960;
+  tour.image_height = 540;
+  auto jpegs = RenderTourJpegs(tour, kTrainingPass);
+  ASSERT_TRUE(jpegs.ok());
+  for (const int r : {1, 2, 4, 8}) {
+    auto g = DecodeGray((*jpegs)[0], 8192, r);
+    ASSERT_TRUE(g.ok()) << r << ": " << g.status().ToString();
+    EXPECT_EQ(g->channels(), 1);
+    EXPECT_EQ(g->cols, (960 + r - 1) / r);
+    EXPECT_EQ(g->rows, (540 + r - 1) / r);
+  }
+  EXPECT_EQ(DecodeGray((*jpegs)[0], 8192, 3).status().code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(DecodeGray("not a jpeg", 8192, 2).status().code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(DecodeGray((*jpegs)[0], 400, 2).status().code(), StatusCode::kResourceExhausted);
+  // The reduced frame gives the features the full decode gives, up to resampling.
+  const ExtractionTarget target = TourTarget(960, 540, {});
+  const auto extractor = FeatureExtractor::Create({});
+  auto full = extractor->Extract(*DecodeImage((*jpegs)[0], 8192), target);
+  auto reduced = extractor->Extract(*DecodeGray((*jpegs)[0], 8192, 2), target);
+  ASSERT_TRUE(full.ok() && reduced.ok());
+  EXPECT_NEAR(reduced->size(), full->size(), full->size() / 5);
 }
 
 // Images too small, too large or empty are refused with a clear status, never a crash.

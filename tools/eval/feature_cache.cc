@@ -12,7 +12,8 @@
 namespace sceneloc {
 namespace {
 
-constexpr uint32_t kCacheVersion = 2;
+// 4: context descriptors read one octave up (issue 10; 3 was a variant of it).
+constexpr uint32_t kCacheVersion = 4;
 
 // Identifies a cache entry: the folder, its files (names and sizes) and the options.
 std::string CacheKey(const std::vector<std::string>& paths, const ExtractorOptions& o,
