@@ -130,11 +130,13 @@ void RecordAndLog(ServerStats* stats, const char* kind, const v1::Reply& reply,
 
 class ZmqServer final : public Server {
  public:
-  ZmqServer(const ServerOptions& options, MapRegistry* registry)
+  ZmqServer(const ServerOptions& options, MapRegistry* registry, ThreadPool* engine_pool)
       : options_(options),
         registry_(registry),
-        engine_pool_(options.threads),
-        handler_(options, registry, &engine_pool_, &stats_),
+        own_engine_pool_(engine_pool != nullptr ? nullptr
+                                                : std::make_unique<ThreadPool>(options.threads)),
+        engine_pool_(engine_pool != nullptr ? engine_pool : own_engine_pool_.get()),
+        handler_(options, registry, engine_pool_, &stats_),
         queue_(static_cast<size_t>(options.queue_capacity)),
         frontend_(context_, zmq::socket_type::router),
         replies_(context_, zmq::socket_type::pull),
@@ -660,7 +662,8 @@ class ZmqServer final : public Server {
   const ServerOptions options_;
   MapRegistry* const registry_;
   ServerStats stats_;
-  ThreadPool engine_pool_;
+  std::unique_ptr<ThreadPool> own_engine_pool_;  // when Start() was given none
+  ThreadPool* const engine_pool_;
   const RequestHandler handler_;
   BoundedQueue<std::unique_ptr<Job>> queue_;
 
@@ -695,10 +698,10 @@ class ZmqServer final : public Server {
 
 }  // namespace
 
-StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options,
-                                                MapRegistry* registry) {
+StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options, MapRegistry* registry,
+                                                ThreadPool* engine_pool) {
   SCENELOC_RETURN_IF_ERROR(options.Validate());
-  auto server = std::make_unique<ZmqServer>(options, registry);
+  auto server = std::make_unique<ZmqServer>(options, registry, engine_pool);
   SCENELOC_RETURN_IF_ERROR(server->Bind());
   SCENELOC_RETURN_IF_ERROR(server->StartThreads());
   spdlog::info("serving {} map(s) on {} with {} worker(s), queue capacity {}{}",

@@ -27,6 +27,7 @@
 #include <string>
 
 #include "common/util/status.h"
+#include "common/util/thread_pool.h"
 #include "server/map_registry.h"
 #include "server/server_options.h"
 
@@ -38,11 +39,14 @@ class Server {
 
   // Binds options.endpoint and starts serving the maps of `registry` (which must outlive
   // the server; it may be changed while serving), and the map loader (watching
-  // options.maps_dir when options.watch_maps). Errors: invalid options (InvalidArgument),
+  // options.maps_dir when options.watch_maps). One request's scoring spreads over
+  // `engine_pool` (which must outlive the server) while its threads are idle; null: the
+  // server makes its own of options.threads threads. Errors: invalid options (InvalidArgument),
   // an endpoint that cannot be bound or a maps directory that cannot be watched (IoError,
   // naming it).
   static StatusOr<std::unique_ptr<Server>> Start(const ServerOptions& options,
-                                                 MapRegistry* registry);
+                                                 MapRegistry* registry,
+                                                 ThreadPool* engine_pool = nullptr);
 
   // The endpoint actually bound (ZMQ_LAST_ENDPOINT): tcp://127.0.0.1:* becomes the port
   // the system chose.
