@@ -228,11 +228,16 @@ int main(int argc, char** argv) {
   // Point and the corridor name a query after its place): the reduced decode must not
   // cost accuracy.
   int truths = 0, right_full = 0, right_reduced = 0, same = 0;
+  std::vector<double> stage_ms[5];  // localise's own stages, one thread
   for (size_t i = 0; i < f.size(); ++i) {
     const cv::Mat reduced = ReducedDecode(in.jpegs[i], f[i].target, f[i].width, f[i].height);
     const auto a = Must(Localise(f[i].features, in.map, match, nullptr));
     const auto b =
         Must(Localise(Must(extractor->Extract(reduced, f[i].target)), in.map, match, nullptr));
+    const StageTimings& st = a.timings;
+    const double ms[5] = {st.descriptor_ms, st.neighbourhood_ms, st.likelihood_ms, st.holistic_ms,
+                          st.verify_ms};
+    for (int k = 0; k < 5; ++k) stage_ms[k].push_back(ms[k]);
     if (a.ranked.empty() || b.ranked.empty()) continue;
     same += a.ranked[0].index == b.ranked[0].index;
     const auto& names = in.map.image_names;
@@ -253,6 +258,11 @@ int main(int argc, char** argv) {
     std::printf("%-42s %9.2f %9.2f %9.2f\n", s.name.c_str(), p50, Quantile(s.ms, 0.99),
                 p50 / floor);
   }
+  const char* stage_names[5] = {"descriptor (S_D)", "neighbourhood (S_N)", "likelihood", "holistic",
+                                "verification"};
+  std::printf("localise stages, 1 thread, p50 ms:");
+  for (int k = 0; k < 5; ++k) std::printf(" %s %.2f", stage_names[k], Quantile(stage_ms[k], 0.5));
+  std::printf("\n");
   std::printf("answers: reduced and full decode agree on %d of %zu frames", same, f.size());
   if (truths > 0) {
     std::printf("; within 2 of the same-named tour image: full %d, reduced %d of %d", right_full,
