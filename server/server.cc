@@ -590,8 +590,12 @@ class ZmqServer final : public Server {
         if (IsStale(j, start, &reply)) {
           // answered OVERLOADED without the work
         } else if (ParseOnWorker(j, &reply)) {
+          busy_workers_.fetch_add(1, std::memory_order_relaxed);
           handler_.Handle(j.request, j.received, &reply, j.client);
-          RecordServiceTime(MsSince(start));
+          // Workers busy at the end, this one included: fewer than all means idle pool
+          // threads may have helped this request (opencv_threads.h, ThreadPool).
+          const int busy = busy_workers_.fetch_sub(1, std::memory_order_relaxed);
+          RecordServiceTime(MsSince(start), busy);
         }
         RecordAndLog(&stats_, KindName(j.request), reply, j.received);
         SendReply(push, j.identity, j.delimited, reply);
@@ -626,8 +630,15 @@ class ZmqServer final : public Server {
     return true;
   }
 
-  // Folds one request's worker time into the running mean the admission estimate uses.
-  void RecordServiceTime(double ms) {
+  // Folds one request's worker time into the running mean the admission estimate uses:
+  // what the request would take with every worker busy. One that ran beside idle workers
+  // had their threads' help (a lone JPEG request: about 1.5x faster on 2 threads), which a
+  // queue of requests will not get; its time is scaled by threads / busy workers, so the
+  // estimate errs on the side of refusing (measured: without it, a burst after a quiet
+  // spell was admitted on the lone time and a well-behaved client was then refused
+  // OVERLOADED for a second; docs/results.md, issue 10).
+  void RecordServiceTime(double wall_ms, int busy_workers) {
+    const double ms = wall_ms * options_.threads / std::max(1, busy_workers);
     double old = service_ms_.load(std::memory_order_relaxed);
     while (!service_ms_.compare_exchange_weak(old, old == 0 ? ms : 0.8 * old + 0.2 * ms,
                                               std::memory_order_relaxed)) {
@@ -685,6 +696,7 @@ class ZmqServer final : public Server {
   // Recent mean time a localise request holds a worker, ms (exponentially weighted; 0
   // until the first one): the admission estimate of limits.max_queue_wait_ms.
   std::atomic<double> service_ms_{0};
+  std::atomic<int> busy_workers_{0};  // workers inside a request's Handle()
   // Undelivered replies not yet logged, and when the last such log line was; I/O thread.
   uint64_t undelivered_since_log_ = 0;
   Clock::time_point last_undelivered_log_{};
