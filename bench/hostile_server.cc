@@ -111,14 +111,17 @@ class GoodClient {
     stop_ = true;
     thread_.join();
   }
-  // Latencies (ms) of calls started in [from, to], and the failures among them.
-  std::vector<double> Latencies(Clock::time_point from, Clock::time_point to, int* failures) const {
+  // Latencies (ms) of calls started in [from, to], the failures among them and the first
+  // failure's message.
+  std::vector<double> Latencies(Clock::time_point from, Clock::time_point to, int* failures,
+                                std::string* first_error = nullptr) const {
     std::lock_guard<std::mutex> lock(mutex_);
     std::vector<double> out;
     *failures = 0;
     for (const Call& c : calls_) {
       if (c.start < from || c.start > to) continue;
       out.push_back(c.ms);
+      if (!c.ok && *failures == 0 && first_error != nullptr) *first_error = c.error;
       *failures += !c.ok;
     }
     return out;
@@ -129,14 +132,16 @@ class GoodClient {
     Clock::time_point start;
     double ms;
     bool ok;
+    std::string error;  // why it failed
   };
   void Run() {
     while (!stop_) {
       const Clock::time_point start = Clock::now();
-      const bool ok = client_->Localise("gp", jpeg_).ok();
+      const auto reply = client_->Localise("gp", jpeg_);
       {
         std::lock_guard<std::mutex> lock(mutex_);
-        calls_.push_back({start, Ms(Clock::now() - start), ok});
+        calls_.push_back({start, Ms(Clock::now() - start), reply.ok(),
+                          reply.ok() ? std::string() : reply.status().message()});
       }
       std::this_thread::sleep_until(start + std::chrono::milliseconds(500));
     }
@@ -289,13 +294,15 @@ int Run(const std::string& server_bin, const std::string& map_path, const std::s
     sampling = false;
     sampler.join();
     int failed = 0;
-    const std::vector<double> lat = good.Latencies(from, Clock::now(), &failed);
+    std::string first_error;
+    const std::vector<double> lat = good.Latencies(from, Clock::now(), &failed, &first_error);
     const double worst = lat.empty() ? 0 : *std::max_element(lat.begin(), lat.end());
     const bool up = server.alive();
     all_ok = all_ok && up && worst <= 1000 + rest_p50 && failed == 0 && peak <= target_mb;
     std::printf("%-34s | %-44s | %6.0f ms | %6.0f MB | %s%s\n", name.c_str(), got.c_str(), worst,
                 peak, up ? "up" : "DOWN",
                 failed ? (", good client failed " + std::to_string(failed)).c_str() : "");
+    if (failed) std::printf("    the good client's first failure: %s\n", first_error.c_str());
     std::fflush(stdout);
   };
 
