@@ -1,7 +1,9 @@
 // Feature extraction on the robot (the thin-client path): the settings and frame a feature
 // set is extracted with, so that the server matches it as it would the JPEG.
 //   - From a map file (best): the map's own extractor settings, and every image brought
-//     into the map's working frame and holistic grid exactly as the server would.
+//     into the map's working frame and holistic grid as the server would. (The server
+//     decodes a JPEG straight to grey at the DCT reduction that covers the frame; an image
+//     decoded here in full gives near-identical features, not bit-identical ones.)
 //   - From a training settings file (or the defaults): each image in its own tour frame
 //     (long side = working_size). The server rescales keypoints of another frame width;
 //     the holistic grid matches the map's when the camera has the tour's aspect ratio.
