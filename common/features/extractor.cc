@@ -184,10 +184,10 @@ class SiftExtractor final : public FeatureExtractor {
     const std::vector<int> kept = StrongestFirst(detected, options_.max_features);
     const size_t n = kept.size();
     // The context descriptors: each keypoint at context_scale times its size, read off the
-    // pyramid octave that holds that scale (ContextKeypoint). Their pyramid starts at the
-    // working frame itself (no keypoint is below octave 0 any more), a quarter of the
-    // pixels of the detection pyramid's doubled base, so the second pass costs the
-    // descriptors and little else.
+    // pyramid octave that holds that scale (ContextKeypoint). At a context_scale of 2 or
+    // more no keypoint stays below octave 0, so their pyramid starts at the working frame
+    // itself, a quarter of the pixels of the detection pyramid's doubled base: the second
+    // pass costs the descriptors and little else.
     std::vector<cv::KeyPoint> wide;
     wide.reserve(n);
     const int top = TopContextOctave(gray.cols, gray.rows);
