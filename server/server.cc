@@ -590,12 +590,11 @@ class ZmqServer final : public Server {
         if (IsStale(j, start, &reply)) {
           // answered OVERLOADED without the work
         } else if (ParseOnWorker(j, &reply)) {
-          busy_workers_.fetch_add(1, std::memory_order_relaxed);
+          BusyWorker busy(&busy_workers_);  // counted off even if Handle throws
           handler_.Handle(j.request, j.received, &reply, j.client);
           // Workers busy at the end, this one included: fewer than all means idle pool
           // threads may have helped this request (opencv_threads.h, ThreadPool).
-          const int busy = busy_workers_.fetch_sub(1, std::memory_order_relaxed);
-          RecordServiceTime(MsSince(start), busy);
+          RecordServiceTime(MsSince(start), busy_workers_.load(std::memory_order_relaxed));
         }
         RecordAndLog(&stats_, KindName(j.request), reply, j.received);
         SendReply(push, j.identity, j.delimited, reply);
@@ -629,6 +628,20 @@ class ZmqServer final : public Server {
                             "); it was not worked on; retry later");
     return true;
   }
+
+  // Counts a worker as busy for its lifetime.
+  class BusyWorker {
+   public:
+    explicit BusyWorker(std::atomic<int>* count) : count_(count) {
+      count_->fetch_add(1, std::memory_order_relaxed);
+    }
+    ~BusyWorker() { count_->fetch_sub(1, std::memory_order_relaxed); }
+    BusyWorker(const BusyWorker&) = delete;
+    BusyWorker& operator=(const BusyWorker&) = delete;
+
+   private:
+    std::atomic<int>* const count_;
+  };
 
   // Folds one request's worker time into the running mean the admission estimate uses:
   // what the request would take with every worker busy. One that ran beside idle workers
