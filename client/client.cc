@@ -1,8 +1,10 @@
 #include "client/client.h"
 
+#include <algorithm>
 #include <chrono>
 #include <map>
 #include <random>
+#include <thread>
 #include <zmq.hpp>
 
 #include "common/keys/keys.h"
@@ -73,9 +75,26 @@ class ZmqClient final : public Client {
     request.set_request_id(next_id_++);
     const std::string session = CarrySessionState(&request);
     StatusOr<v1::Reply> reply = Send(request);
+    // OVERLOADED means nothing was done (a session's frame was not added): asking again is
+    // safe. Wait what the server suggests, jittered, within overload_wait_ms in all.
+    using Clock = std::chrono::steady_clock;
+    const Clock::time_point give_up =
+        Clock::now() + std::chrono::milliseconds(options_.overload_wait_ms);
+    while (reply.ok() && reply->status() == v1::OVERLOADED) {
+      const double hint_ms = std::max<double>(reply->retry_after_ms(), 10.0);
+      const auto wait = std::chrono::duration_cast<Clock::duration>(
+          std::chrono::duration<double, std::milli>(hint_ms * jitter_(random_)));
+      if (Clock::now() + wait > give_up) break;
+      std::this_thread::sleep_for(wait);
+      ++overload_retries_;
+      request.set_request_id(next_id_++);
+      reply = Send(request);
+    }
     if (!session.empty()) KeepSessionState(session, reply);
     return reply;
   }
+
+  int64_t overload_retries() const override { return overload_retries_; }
 
   // A localise request of a session carries the state of that session's last reply (unless
   // it sets one itself or resets). Returns the session's key here ("" for none).
@@ -208,6 +227,9 @@ class ZmqClient final : public Client {
   KeyPair own_key_;     // empty without CURVE
   KeyPair server_key_;  // its public half
   uint64_t next_id_ = 1;
+  int64_t overload_retries_ = 0;
+  std::mt19937 random_{std::random_device()()};
+  std::uniform_real_distribution<double> jitter_{1.0, 1.5};
 };
 
 }  // namespace
@@ -215,6 +237,7 @@ class ZmqClient final : public Client {
 Status ClientOptions::Validate() const {
   if (timeout_ms < 1) return InvalidArgument("timeout_ms must be >= 1");
   if (retries < 0) return InvalidArgument("retries must be >= 0");
+  if (overload_wait_ms < 0) return InvalidArgument("overload_wait_ms must be >= 0");
   if (key_file.empty() != server_key_file.empty()) {
     return InvalidArgument(
         "CURVE needs both key files: this client's key pair (key_file) and the "

@@ -6,7 +6,10 @@
 // closes the socket, opens a fresh one and sends the same request again, up to
 // options.retries more times (the Lazy Pirate pattern of the ZeroMQ guide). So a server
 // that restarts between or during calls is survived; every request kind is safe to
-// repeat. Error replies are never retried.
+// repeat. Error replies are never retried, except OVERLOADED (nothing was done): the call
+// waits the server's Reply.retry_after_ms (times 1 to 1.5, so that clients refused together
+// do not come back together) and asks again, for at most options.overload_wait_ms in all;
+// then the OVERLOADED reply is the answer.
 //
 // Not thread-safe: use one Client per thread (each has its own ZeroMQ context).
 #pragma once
@@ -47,6 +50,10 @@ struct ClientOptions {
   int timeout_ms = 5000;
   // Attempts after the first one timed out, each on a fresh socket (>= 0).
   int retries = 2;
+  // Longest a call spends waiting out OVERLOADED replies before retrying, milliseconds
+  // (>= 0; 0 = return the first OVERLOADED at once). The default covers the server's
+  // limits.max_queue_wait_ms; a robot that would rather drop a stale frame sets it lower.
+  int overload_wait_ms = 1000;
   // CURVE (common/keys/keys.h), for a server with auth.enabled: this client's key pair
   // (a .key file) and the server's public key (its .pub, or its .key). Both or neither.
   // A client whose key the server does not list gets no reply at all: its calls time out.
@@ -81,6 +88,9 @@ class Client {
   virtual StatusOr<v1::ListMapsReply> ListMaps() = 0;
   virtual StatusOr<v1::ReloadMapReply> Reload(const std::string& map) = 0;
   virtual StatusOr<v1::StatsReply> Stats() = 0;
+
+  // OVERLOADED replies this client waited out and asked again after, since it was made.
+  virtual int64_t overload_retries() const = 0;
 };
 
 // The engine status for a non-OK wire reply: "<STATUS>: <error>".

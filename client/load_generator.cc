@@ -64,11 +64,14 @@ void RunClient(Client* client, const std::vector<v1::Request>& requests, size_t 
     const StatusOr<v1::Reply> reply = client->Call(std::move(request));
     const double ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
     Record(reply, ms, tally);
-    // As a robot should: after OVERLOADED, back off (10 ms doubling to 320 ms) instead of
-    // asking again at once; a storm of instant retries takes the CPU the workers need.
+    // As a robot should: after OVERLOADED, back off (the server's retry_after_ms, or 10 ms
+    // doubling to 320 ms from an older server) instead of asking again at once; a storm of
+    // instant retries takes the CPU the workers need.
     if (reply.ok() && reply->status() == v1::OVERLOADED) {
-      std::this_thread::sleep_for(
-          std::chrono::milliseconds(10 << std::min(overloaded_in_a_row++, 5)));
+      const int backoff_ms = reply->retry_after_ms() > 0 ? static_cast<int>(reply->retry_after_ms())
+                                                         : 10 << std::min(overloaded_in_a_row, 5);
+      ++overloaded_in_a_row;
+      std::this_thread::sleep_for(std::chrono::milliseconds(backoff_ms));
     } else {
       overloaded_in_a_row = 0;
     }
@@ -128,6 +131,7 @@ StatusOr<LoadResult> RunLoad(const LoadOptions& options, const std::vector<LoadQ
   ClientOptions client_options;
   client_options.timeout_ms = options.timeout_ms;
   client_options.retries = 0;
+  client_options.overload_wait_ms = 0;  // refusals are counted; Run() backs off itself
   client_options.key_file = options.key_file;
   client_options.server_key_file = options.server_key_file;
   // Made here, used on the client threads: a ZeroMQ socket may move to another thread

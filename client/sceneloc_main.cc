@@ -79,9 +79,10 @@ struct KeyFiles {
 };
 
 StatusOr<std::unique_ptr<sceneloc::Client>> Connect(const std::string& server, int timeout_ms,
-                                                    const KeyFiles& keys) {
+                                                    int overload_wait_ms, const KeyFiles& keys) {
   sceneloc::ClientOptions options;
   options.timeout_ms = timeout_ms;
+  options.overload_wait_ms = overload_wait_ms;
   options.key_file = keys.own;
   options.server_key_file = keys.server;
   return sceneloc::Client::Connect(server, options);
@@ -201,6 +202,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> inputs;
   bool features = false, uint8 = false;
   int timeout_ms = 10000;
+  int overload_wait_ms = sceneloc::ClientOptions().overload_wait_ms;
   sceneloc::LocaliseOptions localise_options;
   float min_confidence = -1;
   sceneloc::ClientExtractorSource extract_source;
@@ -245,6 +247,10 @@ int main(int argc, char** argv) {
   }
   KeyFiles keys;
   for (CLI::App* sub : {localise, maps, reload, stats}) {
+    sub->add_option("--overload-wait-ms", overload_wait_ms,
+                    "longest to wait out OVERLOADED replies (retrying after the server's hint)")
+        ->capture_default_str()
+        ->check(CLI::NonNegativeNumber);
     sub->add_option("--key", keys.own, "CURVE: this client's key pair (sceneloc keygen)");
     sub->add_option("--server-key", keys.server, "CURVE: the server's public key (.pub)");
   }
@@ -287,7 +293,7 @@ int main(int argc, char** argv) {
   if (extract->parsed()) return RunExtract(inputs[0], out, extract_source, uint8);
   if (bench->parsed()) return sceneloc::RunBench(bench_args);
   if (keygen->parsed()) return RunKeygen(key_name, key_dir, force);
-  auto client = Connect(server, timeout_ms, keys);
+  auto client = Connect(server, timeout_ms, overload_wait_ms, keys);
   if (!client.ok()) {
     std::fprintf(stderr, "sceneloc: %s\n", client.status().message().c_str());
     return 2;

@@ -2,8 +2,10 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -112,6 +114,22 @@ v1::Reply ErrorReply(uint64_t request_id, v1::StatusCode code, const std::string
   reply.set_request_id(request_id);
   reply.set_status(code);
   reply.set_error(error);
+  return reply;
+}
+
+// Why a request is not admitted (empty: it is), and the server's estimate of when a retry
+// would be, milliseconds.
+struct Refusal {
+  std::string why;
+  double retry_after_ms = 0;
+};
+
+// An OVERLOADED reply: the refusal's reason and its retry hint, kept within [10 ms, 10 s].
+v1::Reply OverloadedReply(uint64_t request_id, const Refusal& refusal) {
+  v1::Reply reply = ErrorReply(request_id, v1::OVERLOADED,
+                               "server is overloaded: " + refusal.why + "; retry later");
+  reply.set_retry_after_ms(
+      static_cast<uint32_t>(std::clamp(std::ceil(refusal.retry_after_ms), 10.0, 10000.0)));
   return reply;
 }
 
@@ -365,61 +383,98 @@ class ZmqServer final : public Server {
     }
     const std::string connection = ConnectionKey(job->identity);
     const size_t bytes = job->bytes;
-    std::string refusal = AdmissionRefusal(connection, bytes);
-    if (refusal.empty()) refusal = WaitRefusal();
-    if (refusal.empty()) {
+    Refusal refusal = AdmissionRefusal(connection, job->client, bytes);
+    if (refusal.why.empty()) refusal = WaitRefusal();
+    if (refusal.why.empty()) {
+      const std::string client = job->client;
       if (queue_.TryPush(job)) {
         ++outstanding_;
-        ++in_flight_[connection];
+        Track(connection, client);
         queued_bytes_ += static_cast<int64_t>(bytes);
         return;
       }
-      refusal = std::to_string(options_.queue_capacity) +
-                " requests are already waiting (server.queue_capacity)";
+      refusal = {std::to_string(options_.queue_capacity) +
+                     " requests are already waiting (server.queue_capacity)",
+                 QueuedWorkMs()};
     }
     const uint64_t id = job->parsed ? job->request.request_id() : PeekRequestId(job->raw);
-    const v1::Reply reply =
-        ErrorReply(id, v1::OVERLOADED, "server is overloaded: " + refusal + "; retry later");
+    const v1::Reply reply = OverloadedReply(id, refusal);
     RecordAndLog(&stats_, job->parsed ? KindName(job->request) : "localise", reply, job->received);
     ToClient(job->identity, job->delimited, reply);
   }
 
-  // Empty when the work queued ahead of a new request is estimated to take no longer than
-  // limits.max_queue_wait_ms; else the estimate and the limit.
-  std::string WaitRefusal() const {
-    const double per_request_ms = service_ms_.load(std::memory_order_relaxed);
+  // The recent mean time a request holds a worker, ms; 100 before the first one.
+  double ServiceMs() const {
+    const double ms = service_ms_.load(std::memory_order_relaxed);
+    return ms > 0 ? ms : 100.0;
+  }
+
+  // The work waiting for a worker, estimated in ms of the pool's time.
+  double QueuedWorkMs() const {
+    return static_cast<double>(queue_.size()) * service_ms_.load(std::memory_order_relaxed) /
+           options_.threads;
+  }
+
+  // Admits when the work queued ahead of a new request is estimated to take no longer than
+  // limits.max_queue_wait_ms; else the estimate and the limit, and as the retry hint the
+  // time for the queue to drain below the limit.
+  Refusal WaitRefusal() const {
     // The requests waiting ahead of this one; those already running are not counted (an
     // idle server admits anything, however slow).
-    const double wait_ms = static_cast<double>(queue_.size()) * per_request_ms / options_.threads;
-    if (wait_ms <= options_.limits.max_queue_wait_ms) return {};
-    return "about " + std::to_string(static_cast<int>(wait_ms)) + " ms of work (" +
-           std::to_string(queue_.size()) + " requests of ~" +
-           std::to_string(static_cast<int>(per_request_ms)) +
-           " ms) is queued ahead of this request; limits.max_queue_wait_ms is " +
-           std::to_string(options_.limits.max_queue_wait_ms);
+    const double wait_ms = QueuedWorkMs();
+    const int limit = options_.limits.max_queue_wait_ms;
+    if (wait_ms <= limit) return {};
+    return {"about " + std::to_string(static_cast<int>(wait_ms)) + " ms of work (" +
+                std::to_string(queue_.size()) + " requests of ~" +
+                std::to_string(static_cast<int>(ServiceMs())) +
+                " ms) is queued ahead of this request; limits.max_queue_wait_ms is " +
+                std::to_string(limit),
+            wait_ms - limit + ServiceMs() / options_.threads};
   }
 
   static std::string ConnectionKey(const zmq::message_t& identity) {
     return std::string(identity.data<char>(), identity.size());
   }
 
-  // Empty when a request of `bytes` from `connection` may be queued; else which limit it
-  // would pass, with the figures.
-  std::string AdmissionRefusal(const std::string& connection, size_t bytes) const {
+  // Admits a request of `bytes` from `connection` (with auth on, made with the key named
+  // `client`) unless it would pass a per-connection, per-key or byte limit; else which,
+  // with the figures. Each limit is freed by a running request finishing: the retry hint.
+  Refusal AdmissionRefusal(const std::string& connection, const std::string& client,
+                           size_t bytes) const {
     const auto it = in_flight_.find(connection);
-    const int mine = it == in_flight_.end() ? 0 : it->second;
+    const int mine = it == in_flight_.end() ? 0 : it->second.count;
     if (mine >= options_.limits.max_in_flight_per_client) {
-      return "this connection already has " + std::to_string(mine) +
-             " requests queued or running, the most one connection may have "
-             "(limits.max_in_flight_per_client)";
+      return {"this connection already has " + std::to_string(mine) +
+                  " requests queued or running, the most one connection may have "
+                  "(limits.max_in_flight_per_client)",
+              ServiceMs()};
+    }
+    if (!client.empty()) {
+      const auto k = key_in_flight_.find(client);
+      const int keyed = k == key_in_flight_.end() ? 0 : k->second;
+      if (keyed >= options_.limits.max_in_flight_per_key) {
+        return {"the connections of key '" + client + "' already have " + std::to_string(keyed) +
+                    " requests queued or running, the most one key may have "
+                    "(limits.max_in_flight_per_key)",
+                ServiceMs()};
+      }
     }
     const int64_t held = queued_bytes_;
     if (held + static_cast<int64_t>(bytes) > options_.limits.max_queued_bytes) {
-      return "requests queued or running hold " + std::to_string(held) + " bytes; this one (" +
-             std::to_string(bytes) + " bytes) would pass limits.max_queued_bytes (" +
-             std::to_string(options_.limits.max_queued_bytes) + ")";
+      return {"requests queued or running hold " + std::to_string(held) + " bytes; this one (" +
+                  std::to_string(bytes) + " bytes) would pass limits.max_queued_bytes (" +
+                  std::to_string(options_.limits.max_queued_bytes) + ")",
+              ServiceMs()};
     }
     return {};
+  }
+
+  // Counts an admitted request against its connection and key until Released().
+  void Track(const std::string& connection, const std::string& client) {
+    InFlight& entry = in_flight_[connection];
+    ++entry.count;
+    entry.client = client;
+    if (!client.empty()) ++key_in_flight_[client];
   }
 
   // Hands a ReloadMap request to the loader thread, which answers it through loader_push_.
@@ -453,13 +508,17 @@ class ZmqServer final : public Server {
         });
     if (queued == MapLoader::Queued::kQueued) {
       ++outstanding_;
-      ++in_flight_[ConnectionKey(shared->identity)];
+      Track(ConnectionKey(shared->identity), shared->client);
       return;
     }
     job = std::make_unique<Job>(std::move(*shared));
     if (queued == MapLoader::Queued::kOverloaded) {
-      return refuse(v1::OVERLOADED, "server is overloaded: " + std::to_string(kMaxWaitingReloads) +
-                                        " reload_map requests are already waiting; retry later");
+      // A map load takes about a second (a 22 MB map: 0.3-1 s); the hint is one load.
+      const v1::Reply reply = OverloadedReply(
+          id,
+          {std::to_string(kMaxWaitingReloads) + " reload_map requests are already waiting", 1000});
+      RecordAndLog(&stats_, "reload_map", reply, job->received);
+      return ToClient(job->identity, job->delimited, reply);
     }
     refuse(v1::UNAVAILABLE, "server is shutting down");
   }
@@ -524,7 +583,12 @@ class ZmqServer final : public Server {
 
   void Released(const std::string& connection) {
     const auto it = in_flight_.find(connection);
-    if (it != in_flight_.end() && --it->second <= 0) in_flight_.erase(it);
+    if (it == in_flight_.end()) return;
+    if (!it->second.client.empty()) {
+      const auto k = key_in_flight_.find(it->second.client);
+      if (k != key_in_flight_.end() && --k->second <= 0) key_in_flight_.erase(k);
+    }
+    if (--it->second.count <= 0) in_flight_.erase(it);
   }
 
   void FinishDrain() {
@@ -620,12 +684,11 @@ class ZmqServer final : public Server {
     const double waited_ms = std::chrono::duration<double, std::milli>(now - j.received).count();
     if (waited_ms <= 2.0 * options_.limits.max_queue_wait_ms) return false;
     const uint64_t id = j.parsed ? j.request.request_id() : PeekRequestId(j.raw);
-    *reply = ErrorReply(id, v1::OVERLOADED,
-                        "server is overloaded: this request waited " +
-                            std::to_string(static_cast<int>(waited_ms)) +
-                            " ms for a worker, more than twice limits.max_queue_wait_ms (" +
-                            std::to_string(options_.limits.max_queue_wait_ms) +
-                            "); it was not worked on; retry later");
+    *reply = OverloadedReply(
+        id, {"this request waited " + std::to_string(static_cast<int>(waited_ms)) +
+                 " ms for a worker, more than twice limits.max_queue_wait_ms (" +
+                 std::to_string(options_.limits.max_queue_wait_ms) + "); it was not worked on",
+             QueuedWorkMs() - options_.limits.max_queue_wait_ms + ServiceMs()});
     return true;
   }
 
@@ -701,8 +764,14 @@ class ZmqServer final : public Server {
   std::unique_ptr<ZapHandler> zap_;
   size_t outstanding_ = 0;  // queued or running jobs; I/O thread only
   // Requests queued or running (or waiting for the loader) per connection (ROUTER
-  // identity); I/O thread only.
-  std::map<std::string, int> in_flight_;
+  // identity), with the key the connection was made with (auth on; else empty), and per
+  // key over all its connections; I/O thread only.
+  struct InFlight {
+    int count = 0;
+    std::string client;
+  };
+  std::map<std::string, InFlight> in_flight_;
+  std::map<std::string, int> key_in_flight_;
   // Bytes of the requests queued or running: added by the I/O thread, taken off by the
   // worker that answered.
   std::atomic<int64_t> queued_bytes_{0};

@@ -46,6 +46,8 @@ SettingTable Fields(ServerOptions* o) {
        "largest map file read, bytes; larger ones are skipped unread"},
       {"limits", "max_in_flight_per_client", &l->max_in_flight_per_client, 1, 1000000,
        "requests one connection may have queued or running; more get OVERLOADED"},
+      {"limits", "max_in_flight_per_key", &l->max_in_flight_per_key, 1, 1000000,
+       "with auth: requests all connections of one key may have queued or running"},
       {"limits", "max_queued_bytes", &l->max_queued_bytes, 1024, 1e15,
        "bytes of requests queued or running, all connections; more get OVERLOADED"},
       {"limits", "max_decode_bytes", &l->max_decode_bytes, 1 << 20, 1e15,
@@ -82,6 +84,7 @@ Status RequestLimits::Validate() const {
   if (max_jpeg_scans < 1) return InvalidArgument("max_jpeg_scans must be >= 1");
   if (max_request_ms < 1) return InvalidArgument("max_request_ms must be >= 1");
   if (max_in_flight_per_client < 1) return InvalidArgument("max_in_flight_per_client must be >= 1");
+  if (max_in_flight_per_key < 1) return InvalidArgument("max_in_flight_per_key must be >= 1");
   if (max_decode_bytes < (1 << 20)) return InvalidArgument("max_decode_bytes must be >= 1 MiB");
   if (max_queue_wait_ms < 1) return InvalidArgument("max_queue_wait_ms must be >= 1");
   if (max_queued_bytes < max_message_bytes) {

@@ -4,7 +4,7 @@
 //              log_level, summary_interval_s, drain_timeout_s
 //   limits:    max_message_bytes, max_image_side, max_image_pixels, max_keypoints, max_top_k,
 //              max_request_ms, max_jpeg_scans, max_map_bytes, max_in_flight_per_client,
-//              max_queued_bytes, max_decode_bytes, max_queue_wait_ms
+//              max_in_flight_per_key, max_queued_bytes, max_decode_bytes, max_queue_wait_ms
 //   auth:      enabled, server_key, clients
 //   matching:  as configs/match.yaml (common/config/config.h)
 //
@@ -49,6 +49,11 @@ struct RequestLimits {
   // Requests one connection may have queued or running at once; one more gets OVERLOADED
   // (a client that floods cannot fill the queue ahead of the others by itself).
   int max_in_flight_per_client = 8;
+  // With auth on: requests all the connections of one key may have queued or running at
+  // once; one more gets OVERLOADED. A client that opens many connections (a few hundred
+  // requests sent and never read) still counts as one. Give each robot its own key (README
+  // "Authenticated clients"), or raise this for keys that robots share.
+  int max_in_flight_per_key = 8;
   // Bytes of the requests queued or running at once, all connections together; a request
   // that would pass it gets OVERLOADED (so 64 requests of 8 MiB cannot pin 512 MiB).
   int64_t max_queued_bytes = int64_t{64} << 20;
@@ -64,7 +69,7 @@ struct RequestLimits {
   // has waited longer than twice this when a worker takes it is answered OVERLOADED
   // without being worked on: under overload clients learn it in milliseconds instead of
   // waiting seconds, and the requests that are admitted are answered fresh.
-  int max_queue_wait_ms = 1000;
+  int max_queue_wait_ms = 500;
 
   Status Validate() const;
 };

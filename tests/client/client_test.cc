@@ -48,6 +48,92 @@ TEST(ClientTest, TimesOutAndRetriesOnAFreshSocket) {
   EXPECT_EQ(ids[0], ids[1]);                // carrying the same request
 }
 
+// A server on a real ROUTER socket that answers its first `overloaded` requests OVERLOADED
+// with a retry hint of `hint_ms`, and the rest OK (an empty stats reply), until `requests`
+// came or none came for `quiet`. Returns the time each request arrived.
+std::vector<std::chrono::steady_clock::time_point> ServeOverloaded(
+    zmq::socket_t* router, int requests, int overloaded, uint32_t hint_ms,
+    std::chrono::milliseconds quiet = std::chrono::seconds(5)) {
+  std::vector<std::chrono::steady_clock::time_point> arrivals;
+  for (int n = 0; n < requests; ++n) {
+    zmq::pollitem_t item{router->handle(), 0, ZMQ_POLLIN, 0};
+    if (zmq::poll(&item, 1, quiet) == 0) break;
+    std::vector<zmq::message_t> parts;
+    if (!zmq::recv_multipart(*router, std::back_inserter(parts)) || parts.size() != 3) break;
+    arrivals.push_back(std::chrono::steady_clock::now());
+    v1::Request request;
+    request.ParseFromArray(parts[2].data(), static_cast<int>(parts[2].size()));
+    v1::Reply reply;
+    reply.set_request_id(request.request_id());
+    if (n < overloaded) {
+      reply.set_status(v1::OVERLOADED);
+      reply.set_error("server is overloaded: test");
+      reply.set_retry_after_ms(hint_ms);
+    } else {
+      reply.mutable_stats();
+    }
+    router->send(parts[0], zmq::send_flags::sndmore);
+    router->send(zmq::message_t(), zmq::send_flags::sndmore);
+    router->send(zmq::buffer(reply.SerializeAsString()), zmq::send_flags::none);
+  }
+  return arrivals;
+}
+
+// OVERLOADED is waited out: the call asks again after the server's hint (jittered up to
+// 1.5x) and returns the answer that follows; the retries are counted.
+TEST(ClientTest, WaitsOutOverloadedRepliesAfterTheHint) {
+  zmq::context_t context;
+  zmq::socket_t router(context, zmq::socket_type::router);
+  router.set(zmq::sockopt::linger, 0);
+  router.bind("tcp://127.0.0.1:*");
+  auto server = std::async(std::launch::async, [&] { return ServeOverloaded(&router, 3, 2, 60); });
+  auto client = Client::Connect(router.get(zmq::sockopt::last_endpoint));
+  ASSERT_TRUE(client.ok());
+  auto reply = (*client)->Stats();
+  ASSERT_TRUE(reply.ok()) << reply.status().ToString();
+  EXPECT_EQ((*client)->overload_retries(), 2);
+  const auto arrivals = server.get();
+  ASSERT_EQ(arrivals.size(), 3u);
+  for (size_t i = 1; i < arrivals.size(); ++i) {
+    const double gap_ms =
+        std::chrono::duration<double, std::milli>(arrivals[i] - arrivals[i - 1]).count();
+    EXPECT_GE(gap_ms, 59.0) << "retry " << i << " came before the hint";
+  }
+}
+
+// The time spent waiting is bounded by overload_wait_ms: when the next wait would pass it,
+// the OVERLOADED reply is the answer (kResourceExhausted, naming the status); with 0, the
+// first one is.
+TEST(ClientTest, OverloadWaitIsBounded) {
+  for (const int budget_ms : {0, 250}) {
+    zmq::context_t context;
+    zmq::socket_t router(context, zmq::socket_type::router);
+    router.set(zmq::sockopt::linger, 0);
+    router.bind("tcp://127.0.0.1:*");
+    // Hints of 200 ms: with 250 ms allowed, one retry fits (200-300 ms) at most.
+    auto server = std::async(std::launch::async, [&] {
+      return ServeOverloaded(&router, 3, 3, 200, std::chrono::milliseconds(600));
+    });
+    ClientOptions options;
+    options.overload_wait_ms = budget_ms;
+    auto client = Client::Connect(router.get(zmq::sockopt::last_endpoint), options);
+    ASSERT_TRUE(client.ok());
+    const auto start = std::chrono::steady_clock::now();
+    auto reply = (*client)->Stats();
+    const double ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    EXPECT_EQ(reply.status().code(), StatusCode::kResourceExhausted) << budget_ms;
+    EXPECT_EQ(reply.status().message().rfind("OVERLOADED: ", 0), 0u) << reply.status().message();
+    EXPECT_LE((*client)->overload_retries(), budget_ms == 0 ? 0 : 1);
+    EXPECT_LT(ms, budget_ms + 150.0);
+    EXPECT_EQ(server.get().size(), static_cast<size_t>(1 + (*client)->overload_retries()));
+  }
+  ClientOptions negative;
+  negative.overload_wait_ms = -1;
+  EXPECT_EQ(Client::Connect("tcp://127.0.0.1:1", negative).status().code(),
+            StatusCode::kInvalidArgument);
+}
+
 // Invalid options are refused before anything connects.
 TEST(ClientTest, RefusesInvalidOptions) {
   ClientOptions options;

@@ -4,6 +4,8 @@
 
 #include <filesystem>
 #include <fstream>
+#include <zmq.hpp>
+#include <zmq_addon.hpp>
 
 #include "client/client.h"
 #include "common/keys/keys.h"
@@ -150,6 +152,63 @@ TEST_F(AuthTest, ARevokedKeyIsRefusedOnItsOpenConnection) {
   // A new connection with the revoked key gets nothing.
   EXPECT_EQ(Connect(server.endpoint, "robot", kSilentTimeoutMs)->ListMaps().status().code(),
             StatusCode::kIoError);
+}
+
+// With auth on, a key is one client however many connections it opens: its requests in
+// flight over all of them are capped (limits.max_in_flight_per_key), so a few hundred
+// connections sending and never reading cannot take the queue from another key's robot.
+TEST_F(AuthTest, ManyConnectionsOfOneKeyShareItsLimit) {
+  options_.threads = 1;
+  options_.limits.max_in_flight_per_key = 3;
+  test::TestServer server = test::StartTestServerOnDir(options_);
+  ASSERT_FALSE(::testing::Test::HasFatalFailure());
+  zmq::context_t context;
+  constexpr int kConnections = 8;
+  std::vector<zmq::socket_t> sockets;
+  v1::Request request;
+  request.mutable_localise()->set_map(kTestMapName);
+  request.mutable_localise()->set_jpeg(test::TourJpegs()[2]);
+  for (int c = 0; c < kConnections; ++c) {
+    zmq::socket_t& socket = sockets.emplace_back(context, zmq::socket_type::dealer);
+    socket.set(zmq::sockopt::linger, 0);
+    socket.set(zmq::sockopt::curve_serverkey, pairs_["server"].public_key);
+    socket.set(zmq::sockopt::curve_publickey, pairs_["robot"].public_key);
+    socket.set(zmq::sockopt::curve_secretkey, pairs_["robot"].secret_key);
+    socket.connect(server.endpoint);
+    request.set_request_id(static_cast<uint64_t>(c + 1));
+    socket.send(zmq::message_t(), zmq::send_flags::sndmore);
+    socket.send(zmq::buffer(request.SerializeAsString()), zmq::send_flags::none);
+  }
+  // Another key's robot is served meanwhile.
+  auto ops = Connect(server.endpoint, "ops");
+  auto served = ops->Localise(kTestMapName, test::TourFeatures(5));
+  ASSERT_TRUE(served.ok()) << served.status().ToString();
+  EXPECT_EQ(served->locations(0).index(), 5);
+
+  int ok = 0, refused = 0;
+  for (zmq::socket_t& socket : sockets) {
+    zmq::pollitem_t item{socket.handle(), 0, ZMQ_POLLIN, 0};
+    ASSERT_GT(zmq::poll(&item, 1, std::chrono::seconds(60)), 0) << "a request got no reply";
+    std::vector<zmq::message_t> parts;
+    ASSERT_TRUE(zmq::recv_multipart(socket, std::back_inserter(parts)));
+    v1::Reply reply;
+    ASSERT_TRUE(reply.ParseFromArray(parts.back().data(), static_cast<int>(parts.back().size())));
+    if (reply.status() == v1::OK) {
+      ++ok;
+      continue;
+    }
+    ++refused;
+    EXPECT_EQ(reply.status(), v1::OVERLOADED) << reply.error();
+    EXPECT_NE(reply.error().find("key 'robot'"), std::string::npos) << reply.error();
+    EXPECT_NE(reply.error().find("limits.max_in_flight_per_key"), std::string::npos)
+        << reply.error();
+    EXPECT_GE(reply.retry_after_ms(), 10u);
+  }
+  EXPECT_GE(ok, 3);
+  EXPECT_GE(refused, 1);
+  // Once they are answered, the key may send again.
+  auto later = Connect(server.endpoint, "robot")->Localise(kTestMapName, test::TourFeatures(6));
+  ASSERT_TRUE(later.ok()) << later.status().ToString();
 }
 
 TEST_F(AuthTest, BadKeySettingsStopTheStartWithTheirName) {

@@ -507,6 +507,9 @@ TEST(ServerFairnessTest, OneConnectionCannotTakeTheWholeQueue) {
     EXPECT_EQ(reply.status(), v1::OVERLOADED) << reply.error();
     EXPECT_NE(reply.error().find("limits.max_in_flight_per_client"), std::string::npos)
         << reply.error();
+    // A hint to retry once one of its requests is done: about one request's work.
+    EXPECT_GE(reply.retry_after_ms(), 10u);
+    EXPECT_LE(reply.retry_after_ms(), 10000u);
   });
   EXPECT_EQ(static_cast<int>(ids.size()), kRequests);
   EXPECT_GE(ok, 2);
