@@ -387,6 +387,31 @@ int Run(const std::string& server_bin, const std::string& map_path, const std::s
     for (auto& t : senders) t.join();
     return Statuses(total);
   });
+  attack("100,000 stats + list_maps, 4 conns", [&] {
+    // Cheap requests answered on the I/O thread itself, as fast as 4 connections can send
+    // them; replies past a reader's high-water mark (1000) are dropped by ZeroMQ and
+    // counted by the server (stats.replies_undelivered), so most show as NO_REPLY here.
+    v1::Request stats, list;
+    stats.mutable_stats();
+    list.mutable_list_maps();
+    std::vector<std::string> batch;
+    for (int i = 0; i < 25000; ++i) {
+      batch.push_back(i % 2 ? stats.SerializeAsString() : list.SerializeAsString());
+    }
+    std::map<std::string, int> total;
+    std::vector<std::thread> senders;
+    std::mutex m;
+    for (int c = 0; c < 4; ++c) {
+      senders.emplace_back([&] {
+        zmq::context_t own;
+        auto s = Fire(own, endpoint, batch, true, true, std::chrono::seconds(10));
+        std::lock_guard<std::mutex> lock(m);
+        for (auto& [k, v] : s) total[k] += v;
+      });
+    }
+    for (auto& t : senders) t.join();
+    return Statuses(total);
+  });
   attack("sparse 100 GB *.scnl + SIGHUP", [&] {
     const fs::path huge = maps / "huge.scnl";
     { std::ofstream(huge) << ""; }
