@@ -61,7 +61,11 @@ nlohmann::json QueriesJson(const sl::SetResult& r) {
                    {"session", {r.session_outcomes[q].predicted, r.session_outcomes[q].confidence}},
                    {"paper", {r.paper_outcomes[q].predicted, r.paper_outcomes[q].confidence}},
                    {"baseline", {o.baseline.predicted, o.baseline.confidence}},
-                   {"baseline+ransac", {o.reranked.predicted, o.reranked.confidence}}});
+                   {"baseline+ransac", {o.reranked.predicted, o.reranked.confidence}},
+                   // What our confidence is made of (common/matching/confidence.h): every
+                   // location's fused evidence and P(in the map), so that its constants can
+                   // be re-fitted offline (scripts/fit_confidence.py).
+                   {"evidence", {{"in_map", o.in_map}, {"scores", o.location_scores}}}});
   }
   return out;
 }
