@@ -64,6 +64,10 @@ SettingTable Fields(ServerOptions* o) {
        "live sessions at most; a new one beyond drops the least recently used", "max-sessions"},
       {"sessions", "idle_timeout_s", &o->sessions.idle_timeout_s, 1e-3, 1e9,
        "a session unused this long is dropped, seconds", "session-idle-timeout"},
+      {"sessions", "max_state_bytes", &o->sessions.max_state_bytes, 1, 1e15,
+       "the sessions' filter states together at most, bytes; past it the least recently used "
+       "are dropped",
+       "max-session-bytes"},
   };
   for (SettingField& f : MatchSettingTable(&o->matching)) {
     f.help = f.section + "." + f.key + " (configs/match.yaml)";

@@ -22,6 +22,7 @@ size_t BeliefBytes(const SequenceState& state) { return state.belief.capacity() 
 
 Status SessionOptions::Validate() const {
   if (max_sessions < 1) return InvalidArgument("sessions.max_sessions must be >= 1");
+  if (max_state_bytes < 1) return InvalidArgument("sessions.max_state_bytes must be >= 1");
   if (!(idle_timeout_s > 0) || !std::isfinite(idle_timeout_s)) {
     return InvalidArgument("sessions.idle_timeout_s must be > 0");
   }
@@ -90,6 +91,10 @@ SessionStart SessionStore::Update(const std::string& client, const std::string& 
   const size_t before = BeliefBytes(entry.state);
   step(&entry.state);
   state_bytes_ = state_bytes_ - before + BeliefBytes(entry.state);
+  // The one just updated is at the front of lru_: never dropped here.
+  while (state_bytes_ > static_cast<size_t>(options_.max_state_bytes) && lru_.size() > 1) {
+    DropLeastRecentlyUsed();
+  }
   return start;
 }
 

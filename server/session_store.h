@@ -3,9 +3,9 @@
 //
 // A session is named by the client and keyed by (client key name, map name, session name):
 // with auth.enabled, one robot's key cannot reach another key's sessions. The state is
-// bounded: at most max_sessions live (the least recently used is dropped for a new one),
-// a session unused for idle_timeout_s is dropped, and a session whose map was reloaded
-// since its last frame (a new generation) starts again.
+// bounded: at most max_sessions live and max_state_bytes of states (the least recently
+// used are dropped first), a session unused for idle_timeout_s is dropped, and a session whose map
+// was reloaded since its last frame (a new generation) starts again.
 //
 // The store is half of where a session lives: every reply also carries the state
 // (session_token.h) and a request that sends it back continues from it (SessionSeed), so
@@ -35,6 +35,11 @@ struct SessionOptions {
   int64_t max_sessions = 10000;
   // A session unused this long is dropped, seconds (> 0).
   double idle_timeout_s = 600;
+  // The sessions' filter states together at most, bytes: a state holds a float per tour
+  // location, so 10,000 sessions on a 5,000-location map would be 200 MB. Past it the
+  // least recently used are dropped (the one just updated is always kept). Their clients
+  // still continue from the state their replies carry.
+  int64_t max_state_bytes = int64_t{64} << 20;
 
   Status Validate() const;
 };
@@ -66,8 +71,9 @@ class SessionStore {
   // under the store's lock: on seed.carried when given; on a fresh state after a reset, a
   // state of another map, for a session the store does not hold, or one that last ran on
   // another generation of its map; on its stored state otherwise. Keeps the result. Drops
-  // the sessions idle past the timeout and, for a new session when full, the least
-  // recently used. Returns how the session began (CONTINUED for a carried state).
+  // the sessions idle past the timeout and, for a new session when full or when the states
+  // pass max_state_bytes, the least recently used. Returns how the session began (CONTINUED for a
+  // carried state).
   SessionStart Update(const std::string& client, const std::string& map, const std::string& name,
                       uint64_t generation, const SessionSeed& seed, Clock::time_point now,
                       const std::function<void(SequenceState*)>& step);

@@ -118,6 +118,25 @@ TEST(SessionStoreTest, MemoryIsCounted) {
   EXPECT_LT(store.Counts().memory_bytes, 1024u);
 }
 
+// The states together stay within max_state_bytes: the least recently used go first, the
+// session just updated never, even when it alone passes the limit.
+TEST(SessionStoreTest, StateBytesAreBounded) {
+  SessionOptions options = Options(1000);
+  options.max_state_bytes = 10 * 1000 * sizeof(float);  // ten states of 1000 locations
+  SessionStore store(options);
+  const Clock::time_point t0 = Clock::now();
+  const auto state = [](SequenceState* s) { s->belief.assign(1000, 0.001f); };
+  for (int i = 0; i < 25; ++i) store.Update("", "m", std::to_string(i), 1, {}, t0, state);
+  EXPECT_EQ(store.Counts().live, 10u);
+  EXPECT_EQ(store.Counts().evicted, 15u);
+  EXPECT_EQ(store.Update("", "m", "24", 1, {}, t0, state), SessionStart::kContinued);
+  EXPECT_EQ(store.Update("", "m", "0", 1, {}, t0, state), SessionStart::kNew);
+  const auto huge = [](SequenceState* s) { s->belief.assign(20000, 0.001f); };
+  store.Update("", "m", "huge", 1, {}, t0, huge);
+  EXPECT_EQ(store.Counts().live, 1u);
+  EXPECT_EQ(store.Update("", "m", "huge", 1, {}, t0, huge), SessionStart::kContinued);
+}
+
 // Many threads on many sessions at once: every frame lands in its own session.
 TEST(SessionStoreTest, ConcurrentUpdates) {
   SessionStore store(Options(1000));
@@ -146,6 +165,9 @@ TEST(SessionStoreTest, OptionsValidate) {
   EXPECT_FALSE(Options(0).Validate().ok());
   EXPECT_FALSE(Options(10, 0).Validate().ok());
   EXPECT_FALSE(Options(10, -1).Validate().ok());
+  SessionOptions no_bytes;
+  no_bytes.max_state_bytes = 0;
+  EXPECT_FALSE(no_bytes.Validate().ok());
 }
 
 }  // namespace
