@@ -89,7 +89,7 @@ def main():
     report = json.load(open(sys.argv[1] + "/accuracy.json"))
     sets = {}
     for s in report["sets"]:
-        qs = s.get("queries", [])
+        qs = s.get("per_query", [])
         if qs and "evidence" in qs[0]:
             sets[s["name"]] = [Query(q, tolerance) for q in qs]
     if not sets:
