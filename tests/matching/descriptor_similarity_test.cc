@@ -70,6 +70,34 @@ TEST(DescriptorSimilarityTest, MatchesBruteForceReference) {
   }
 }
 
+// Map::Finalize's projection gives a true lower bound on every pair's squared distance:
+// |a - mu|^2 >= |P^T a - P^T mu|^2 + (|a - P P^T a| - |mu - P P^T mu|)^2, with P orthonormal;
+// on features near landmarks (where the bound is tight) and far from all of them.
+TEST(DescriptorSimilarityTest, ProjectionBoundsEveryDistanceFromBelow) {
+  Map map = test::MakeRandomMap(20, 600, 5);
+  const Eigen::MatrixXf gram = map.local_basis.transpose() * map.local_basis;
+  EXPECT_TRUE(gram.isIdentity(1e-4f));
+  FeatureSet f = FeaturesNear(map, 200, 9);
+  const FeatureSet far = FeaturesNear(test::MakeRandomMap(20, 50, 99), 100, 4);
+  f.local.conservativeResize(300, Eigen::NoChange);
+  f.local.bottomRows(100) = far.local;
+  int tight = 0;
+  for (int i = 0; i < f.local.rows(); ++i) {
+    const Eigen::VectorXf a = f.local.row(i).transpose();
+    const Eigen::VectorXf pa = map.local_basis.transpose() * a;
+    const float ra = (a - map.local_basis * pa).norm();
+    for (int g = 0; g < map.num_landmarks(); ++g) {
+      const float exact = (f.local.row(i) - map.local_mean.row(g)).squaredNorm();
+      const Eigen::VectorXf pmu = map.local_projected.row(g).transpose();
+      const float dr = ra - map.local_residual_norm[g];
+      const float bound = (pa - pmu).squaredNorm() + dr * dr;
+      ASSERT_LE(bound, exact + 1e-5f) << "feature " << i << ", landmark " << g;
+      tight += bound > 0.5f * exact;
+    }
+  }
+  EXPECT_GT(tight, 0);
+}
+
 // A feature equal to a landmark's mean has S_D = 1 with it.
 TEST(DescriptorSimilarityTest, FeatureAtTheMeanScoresOne) {
   const Map map = test::MakeRandomMap(5, 40, 11);
