@@ -21,20 +21,20 @@ COPY . .
 RUN cmake -S . -B /build -G Ninja -DCMAKE_BUILD_TYPE=Release -DSCENELOC_AVX2=OFF \
       -DSCENELOC_BUILD_TESTS=OFF -DSCENELOC_BUILD_BENCHMARKS=OFF \
  && cmake --build /build -j"$(nproc)" \
-      --target sceneloc-server sceneloc sceneloc-train sceneloc-gentour \
- && strip /build/server/sceneloc-server /build/client/sceneloc \
+      --target sceneloc-server sceneloc-broker sceneloc sceneloc-train sceneloc-gentour \
+ && strip /build/server/sceneloc-server /build/server/sceneloc-broker /build/client/sceneloc \
       /build/tools/sceneloc-train /build/tools/sceneloc-gentour
 
 # ---------------------------------------------------------------- runtime
 FROM debian:bookworm-slim
-# Exactly the libraries the four binaries link (readelf -d ... | grep NEEDED), Debian 12 names.
+# Exactly the libraries the five binaries link (readelf -d ... | grep NEEDED), Debian 12 names.
 RUN apt-get update -qq \
  && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
       libopencv-core406 libopencv-imgproc406 libopencv-imgcodecs406 \
       libopencv-features2d406 libopencv-calib3d406 \
       libprotobuf32 libzmq5 libspdlog1.10 libfmt9 libyaml-cpp0.7 \
  && rm -rf /var/lib/apt/lists/*
-COPY --from=build /build/server/sceneloc-server /build/client/sceneloc \
+COPY --from=build /build/server/sceneloc-server /build/server/sceneloc-broker /build/client/sceneloc \
      /build/tools/sceneloc-train /build/tools/sceneloc-gentour /usr/local/bin/
 COPY configs/ /etc/sceneloc/
 RUN useradd --uid 10001 --user-group --no-create-home --home-dir /nonexistent \

@@ -128,6 +128,13 @@ class ZmqClient final : public Client {
         socket_.send(zmq::message_t(), zmq::send_flags::sndmore);
         socket_.send(zmq::buffer(bytes), zmq::send_flags::none);
         auto reply = AwaitReply(request.request_id());
+        // UNAVAILABLE: the server (a worker behind a broker, say) is shutting down and did
+        // nothing; a fresh socket may reach one that is not, as after a timeout.
+        const bool unavailable = reply && reply->ok() && (*reply)->status() == v1::UNAVAILABLE;
+        if (unavailable && attempt < options_.retries) {
+          std::this_thread::sleep_for(std::chrono::milliseconds(50));
+          continue;
+        }
         if (reply) return *std::move(reply);
       } catch (const zmq::error_t& e) {
         return IoError("ZeroMQ error talking to '" + endpoint_ + "': " + e.what());

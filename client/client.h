@@ -6,7 +6,9 @@
 // closes the socket, opens a fresh one and sends the same request again, up to
 // options.retries more times (the Lazy Pirate pattern of the ZeroMQ guide). So a server
 // that restarts between or during calls is survived; every request kind is safe to
-// repeat. Error replies are never retried, except OVERLOADED (nothing was done): the call
+// repeat. An UNAVAILABLE reply (the server is shutting down; nothing was done) is retried
+// the same way, after 50 ms, so behind a broker another worker answers. Other error
+// replies are never retried, except OVERLOADED (nothing was done either): the call
 // waits the server's Reply.retry_after_ms (times 1 to 1.5, so that clients refused together
 // do not come back together) and asks again, for at most options.overload_wait_ms in all;
 // then the OVERLOADED reply is the answer.

@@ -156,7 +156,11 @@ class ZmqServer final : public Server {
         engine_pool_(engine_pool != nullptr ? engine_pool : own_engine_pool_.get()),
         handler_(options, registry, engine_pool_, &stats_),
         queue_(static_cast<size_t>(options.queue_capacity)),
-        frontend_(context_, zmq::socket_type::router),
+        // Worker mode: a DEALER connected to the broker's DEALER backend receives what the
+        // broker's ROUTER frontend read, [client identity][empty][request], exactly what
+        // our own ROUTER would; replies go back the same way. Nothing else changes.
+        frontend_(context_,
+                  options.connect.empty() ? zmq::socket_type::router : zmq::socket_type::dealer),
         replies_(context_, zmq::socket_type::pull),
         control_(context_, zmq::socket_type::pull),
         loader_push_(context_, zmq::socket_type::push) {}
@@ -178,15 +182,22 @@ class ZmqServer final : public Server {
       }
       frontend_.set(zmq::sockopt::maxmsgsize, 2 * options_.limits.max_message_bytes);
       frontend_.set(zmq::sockopt::linger, kLingerMs);
-      frontend_.set(zmq::sockopt::router_mandatory, true);
-      frontend_.bind(options_.endpoint);
-      endpoint_ = frontend_.get(zmq::sockopt::last_endpoint);
+      if (options_.connect.empty()) {
+        frontend_.set(zmq::sockopt::router_mandatory, true);
+        frontend_.bind(options_.endpoint);
+        endpoint_ = frontend_.get(zmq::sockopt::last_endpoint);
+      } else {
+        frontend_.connect(options_.connect);
+        endpoint_ = options_.connect;
+      }
       replies_.bind(kRepliesEndpoint);
       control_.bind(kControlEndpoint);
       loader_push_.set(zmq::sockopt::linger, -1);
       loader_push_.connect(kRepliesEndpoint);
     } catch (const zmq::error_t& e) {
-      return IoError("cannot bind '" + options_.endpoint + "': " + e.what());
+      return IoError(options_.connect.empty()
+                         ? "cannot bind '" + options_.endpoint + "': " + e.what()
+                         : "cannot connect to '" + options_.connect + "': " + e.what());
     }
     return Status::Ok();
   }
@@ -798,8 +809,9 @@ StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options, Ma
   auto server = std::make_unique<ZmqServer>(options, registry, engine_pool);
   SCENELOC_RETURN_IF_ERROR(server->Bind());
   SCENELOC_RETURN_IF_ERROR(server->StartThreads());
-  spdlog::info("serving {} map(s) on {} with {} worker(s), queue capacity {}{}",
-               registry->List().size(), server->endpoint(), options.threads, options.queue_capacity,
+  spdlog::info("serving {} map(s) {} {} with {} worker(s), queue capacity {}{}",
+               registry->List().size(), options.connect.empty() ? "on" : "as a worker of broker",
+               server->endpoint(), options.threads, options.queue_capacity,
                options.watch_maps ? ", watching " + options.maps_dir : std::string());
   return std::unique_ptr<Server>(std::move(server));
 }

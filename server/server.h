@@ -49,7 +49,7 @@ class Server {
                                                  ThreadPool* engine_pool = nullptr);
 
   // The endpoint actually bound (ZMQ_LAST_ENDPOINT): tcp://127.0.0.1:* becomes the port
-  // the system chose.
+  // the system chose. In worker mode (options.connect), the broker backend connected to.
   virtual std::string endpoint() const = 0;
 
   // Queues a reload of every map file in options.maps_dir on the loader thread, and the

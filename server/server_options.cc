@@ -22,6 +22,9 @@ SettingTable Fields(ServerOptions* o) {
       {"server", "reload_debounce_ms", &o->reload_debounce_ms, 0, 60000,
        "act on a map file's changes once quiet this long, ms"},
       {"server", "endpoint", &o->endpoint, 0, 0, "ZeroMQ endpoint to bind, e.g. tcp://*:5555"},
+      {"server", "connect", &o->connect, 0, 0,
+       "worker mode: connect to a sceneloc-broker backend, e.g. tcp://host:5556, instead of "
+       "binding endpoint"},
       {"server", "threads", &o->threads, 1, 256, "worker threads"},
       {"server", "queue_capacity", &o->queue_capacity, 1, 1000000,
        "requests waiting for a worker at most; more get OVERLOADED"},
@@ -122,6 +125,11 @@ Status ServerOptions::Validate() const {
   if (!(drain_timeout_s >= 0)) return InvalidArgument("drain_timeout_s must be >= 0");
   SCENELOC_RETURN_IF_ERROR(limits.Validate());
   SCENELOC_RETURN_IF_ERROR(auth.Validate());
+  if (!connect.empty() && auth.enabled) {
+    return InvalidArgument(
+        "server.connect (worker mode) cannot be combined with auth.enabled: clients "
+        "authenticate with the server they connect to, which is then the broker");
+  }
   SCENELOC_RETURN_IF_ERROR(sessions.Validate());
   return matching.Validate();
 }

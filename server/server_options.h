@@ -98,6 +98,10 @@ struct ServerOptions {
   int reload_debounce_ms = 100;
   // ZeroMQ endpoint the ROUTER socket binds, e.g. tcp://*:5555 or tcp://127.0.0.1:*.
   std::string endpoint = "tcp://*:5555";
+  // Worker mode: connect to a broker's backend (sceneloc-broker --backend) instead of
+  // binding `endpoint`, e.g. tcp://broker-host:5556. Clients talk to the broker's frontend
+  // and do not change; any number of workers may connect and leave. Empty: bind.
+  std::string connect;
   // Worker threads that localise requests (also the engine's ParallelFor width).
   int threads = 2;
   // Requests waiting for a worker at most; one more gets an immediate OVERLOADED reply.

@@ -53,7 +53,8 @@ TEST(ClientTest, TimesOutAndRetriesOnAFreshSocket) {
 // came or none came for `quiet`. Returns the time each request arrived.
 std::vector<std::chrono::steady_clock::time_point> ServeOverloaded(
     zmq::socket_t* router, int requests, int overloaded, uint32_t hint_ms,
-    std::chrono::milliseconds quiet = std::chrono::seconds(5)) {
+    std::chrono::milliseconds quiet = std::chrono::seconds(5),
+    v1::StatusCode refusal = v1::OVERLOADED) {
   std::vector<std::chrono::steady_clock::time_point> arrivals;
   for (int n = 0; n < requests; ++n) {
     zmq::pollitem_t item{router->handle(), 0, ZMQ_POLLIN, 0};
@@ -66,9 +67,9 @@ std::vector<std::chrono::steady_clock::time_point> ServeOverloaded(
     v1::Reply reply;
     reply.set_request_id(request.request_id());
     if (n < overloaded) {
-      reply.set_status(v1::OVERLOADED);
-      reply.set_error("server is overloaded: test");
-      reply.set_retry_after_ms(hint_ms);
+      reply.set_status(refusal);
+      reply.set_error("test refusal");
+      if (refusal == v1::OVERLOADED) reply.set_retry_after_ms(hint_ms);
     } else {
       reply.mutable_stats();
     }
@@ -132,6 +133,24 @@ TEST(ClientTest, OverloadWaitIsBounded) {
   negative.overload_wait_ms = -1;
   EXPECT_EQ(Client::Connect("tcp://127.0.0.1:1", negative).status().code(),
             StatusCode::kInvalidArgument);
+}
+
+// UNAVAILABLE (a server shutting down: behind a broker, one worker of several) is retried
+// on a fresh socket, within options.retries, and the answer that follows is returned.
+TEST(ClientTest, RetriesUnavailableOnAFreshSocket) {
+  zmq::context_t context;
+  zmq::socket_t router(context, zmq::socket_type::router);
+  router.set(zmq::sockopt::linger, 0);
+  router.bind("tcp://127.0.0.1:*");
+  auto server = std::async(std::launch::async, [&] {
+    return ServeOverloaded(&router, 2, 1, 0, std::chrono::seconds(5), v1::UNAVAILABLE);
+  });
+  auto client = Client::Connect(router.get(zmq::sockopt::last_endpoint));
+  ASSERT_TRUE(client.ok());
+  auto reply = (*client)->Stats();
+  ASSERT_TRUE(reply.ok()) << reply.status().ToString();
+  EXPECT_EQ(server.get().size(), 2u);
+  EXPECT_EQ((*client)->overload_retries(), 0);
 }
 
 // Invalid options are refused before anything connects.

@@ -34,7 +34,7 @@ TEST(QualityTest, HandComputedEquationFour) {
   map.local_var = {0.001f, 0.001f};
   map.context_dmax.setConstant(2, kNumHistograms, 0.01f);
   map.context_var.setConstant(2, kNumHistograms, 0.001f);
-  map.local_mean_sqnorm = {1, 1};
+  map.Finalize();  // the derived fields S_D reads
 
   std::vector<FeatureSet> tour(2);
   const int axes[2][3] = {{0, 1, -1}, {0, 1, 0}};

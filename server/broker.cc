@@ -1,0 +1,108 @@
+#include "server/broker.h"
+
+#include <spdlog/spdlog.h>
+
+#include <mutex>
+#include <thread>
+#include <zmq.hpp>
+
+namespace sceneloc {
+namespace {
+
+constexpr char kControlEndpoint[] = "inproc://sceneloc-broker-control";
+
+class ZmqBroker final : public Broker {
+ public:
+  explicit ZmqBroker(const BrokerOptions& options)
+      : options_(options),
+        frontend_(context_, zmq::socket_type::router),
+        backend_(context_, zmq::socket_type::dealer),
+        control_(context_, zmq::socket_type::pair),
+        stop_(context_, zmq::socket_type::pair) {}
+
+  ~ZmqBroker() override { Stop(); }
+
+  Status Bind() {
+    std::string where;
+    try {
+      where = options_.frontend;
+      frontend_.set(zmq::sockopt::maxmsgsize, options_.max_message_bytes);
+      frontend_.set(zmq::sockopt::linger, 0);
+      frontend_.bind(options_.frontend);
+      where = options_.backend;
+      backend_.set(zmq::sockopt::linger, 0);
+      backend_.bind(options_.backend);
+      where = kControlEndpoint;
+      control_.bind(kControlEndpoint);
+      stop_.connect(kControlEndpoint);
+    } catch (const zmq::error_t& e) {
+      return IoError("cannot bind '" + where + "': " + e.what());
+    }
+    frontend_endpoint_ = frontend_.get(zmq::sockopt::last_endpoint);
+    backend_endpoint_ = backend_.get(zmq::sockopt::last_endpoint);
+    // The sockets move to the proxy's thread here; thread creation orders the accesses.
+    thread_ = std::thread([this] { Forward(); });
+    return Status::Ok();
+  }
+
+  std::string frontend() const override { return frontend_endpoint_; }
+  std::string backend() const override { return backend_endpoint_; }
+
+  void Stop() override {
+    std::lock_guard<std::mutex> lock(stop_mutex_);
+    if (!thread_.joinable()) return;
+    try {
+      stop_.send(zmq::str_buffer("TERMINATE"), zmq::send_flags::none);
+    } catch (const zmq::error_t& e) {
+      spdlog::error("broker: cannot stop the proxy: {}", e.what());
+    }
+    thread_.join();
+  }
+
+ private:
+  void Forward() {
+    try {
+      zmq::proxy_steerable(frontend_, backend_, zmq::socket_ref(), control_);
+    } catch (const zmq::error_t& e) {
+      // ETERM only when the context ends under it; anything else is worth a line.
+      if (e.num() != ETERM) spdlog::error("broker: the proxy stopped: {}", e.what());
+    }
+    frontend_.close();
+    backend_.close();
+    control_.close();
+  }
+
+  const BrokerOptions options_;
+  zmq::context_t context_;
+  // Owned by the proxy's thread once it runs.
+  zmq::socket_t frontend_;
+  zmq::socket_t backend_;
+  zmq::socket_t control_;
+  zmq::socket_t stop_;  // Stop()'s end of the control pair, under stop_mutex_
+  std::mutex stop_mutex_;
+  std::string frontend_endpoint_;  // constant after Bind()
+  std::string backend_endpoint_;
+  std::thread thread_;
+};
+
+}  // namespace
+
+Status BrokerOptions::Validate() const {
+  if (frontend.empty()) return InvalidArgument("broker frontend endpoint must be set");
+  if (backend.empty()) return InvalidArgument("broker backend endpoint must be set");
+  // The same endpoint twice could never bind (tcp://host:* asks for two ports: fine).
+  if (frontend == backend && frontend.find(":*") == std::string::npos) {
+    return InvalidArgument("broker frontend and backend must differ (both '" + frontend + "')");
+  }
+  if (max_message_bytes < 1024) return InvalidArgument("max_message_bytes must be >= 1024");
+  return Status::Ok();
+}
+
+StatusOr<std::unique_ptr<Broker>> Broker::Start(const BrokerOptions& options) {
+  SCENELOC_RETURN_IF_ERROR(options.Validate());
+  auto broker = std::make_unique<ZmqBroker>(options);
+  SCENELOC_RETURN_IF_ERROR(broker->Bind());
+  return std::unique_ptr<Broker>(std::move(broker));
+}
+
+}  // namespace sceneloc

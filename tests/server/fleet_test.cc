@@ -1,0 +1,164 @@
+// A fleet on loopback: sceneloc::Broker with real sceneloc servers in worker mode
+// (ServerOptions::connect) behind it, and clients that talk to the broker exactly as they
+// would to one server. Workers share the work, one may be shut down mid-run and another
+// join without a failed request, and a session's frames are answered by different workers.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <future>
+#include <thread>
+
+#include "client/client.h"
+#include "server/broker.h"
+#include "tests/server/server_test_support.h"
+
+namespace sceneloc {
+namespace {
+
+using test::kTestMapName;
+
+std::unique_ptr<Broker> StartBroker() {
+  BrokerOptions options;
+  options.frontend = "tcp://127.0.0.1:*";
+  options.backend = "tcp://127.0.0.1:*";
+  auto broker = Broker::Start(options);
+  EXPECT_TRUE(broker.ok()) << broker.status().ToString();
+  return broker.ok() ? std::move(broker).value() : nullptr;
+}
+
+test::TestServer StartWorker(const Broker& broker) {
+  ServerOptions options = test::TestServerOptions();
+  options.connect = broker.backend();
+  options.threads = 1;
+  return test::StartTestServer(options);
+}
+
+std::unique_ptr<Client> ClientOf(const Broker& broker, int timeout_ms = 5000) {
+  ClientOptions options;
+  options.timeout_ms = timeout_ms * test::kTimeScale;
+  options.retries = 3;
+  auto client = Client::Connect(broker.frontend(), options);
+  EXPECT_TRUE(client.ok()) << client.status().ToString();
+  return client.ok() ? std::move(client).value() : nullptr;
+}
+
+// Requests each worker has answered, from two stats requests (the broker hands requests to
+// its workers in turn, so consecutive ones reach different workers). Each count includes
+// the stats request itself.
+std::vector<uint64_t> RequestsPerWorker(Client* client) {
+  std::vector<uint64_t> counts;
+  for (int i = 0; i < 2; ++i) {
+    auto stats = client->Stats();
+    EXPECT_TRUE(stats.ok()) << stats.status().ToString();
+    if (stats.ok()) counts.push_back(stats->requests());
+  }
+  return counts;
+}
+
+// Two workers behind one broker: every answer right, and both workers did some of it.
+TEST(FleetTest, WorkersBehindOneBrokerShareTheWork) {
+  auto broker = StartBroker();
+  ASSERT_NE(broker, nullptr);
+  test::TestServer a = StartWorker(*broker);
+  test::TestServer b = StartWorker(*broker);
+  ASSERT_NE(a.server, nullptr);
+  ASSERT_NE(b.server, nullptr);
+  EXPECT_EQ(a.endpoint, broker->backend());
+  auto client = ClientOf(*broker);
+  for (int i = 0; i < 8; ++i) {
+    auto answer = client->Localise(kTestMapName, test::TourFeatures(i));
+    ASSERT_TRUE(answer.ok()) << answer.status().ToString();
+    EXPECT_EQ(answer->locations(0).index(), i);
+  }
+  const std::vector<uint64_t> counts = RequestsPerWorker(client.get());
+  ASSERT_EQ(counts.size(), 2u);
+  EXPECT_GE(counts[0], 2u);  // its stats request and at least one localise
+  EXPECT_GE(counts[1], 2u);
+  EXPECT_EQ(counts[0] + counts[1], 10u);
+}
+
+// A worker shut down while a client runs costs no failed request (the client retries on a
+// fresh socket after its timeout), and a worker that joins later takes work at once.
+TEST(FleetTest, WorkersComeAndGoWithoutAFailedRequest) {
+  auto broker = StartBroker();
+  ASSERT_NE(broker, nullptr);
+  test::TestServer a = StartWorker(*broker);
+  test::TestServer b = StartWorker(*broker);
+  ASSERT_NE(a.server, nullptr);
+  ASSERT_NE(b.server, nullptr);
+  std::atomic<int> done{0};
+  auto run = std::async(std::launch::async, [&] {
+    auto client = ClientOf(*broker, 1000);
+    int failed = 0;
+    for (int i = 0; i < 24; ++i) {
+      auto answer = client->Localise(kTestMapName, test::TourFeatures(i % 12));
+      if (!answer.ok() || answer->locations(0).index() != i % 12) ++failed;
+      ++done;
+    }
+    return failed;
+  });
+  while (done < 6) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  a.server.reset();  // drains what it holds and leaves; its registry goes with it
+  a.registry.reset();
+  EXPECT_EQ(run.get(), 0);
+
+  test::TestServer c = StartWorker(*broker);
+  ASSERT_NE(c.server, nullptr);
+  auto client = ClientOf(*broker);
+  for (int i = 0; i < 4; ++i)
+    ASSERT_TRUE(client->Localise(kTestMapName, test::TourFeatures(i)).ok());
+  const std::vector<uint64_t> counts = RequestsPerWorker(client.get());
+  ASSERT_EQ(counts.size(), 2u);
+  // One of the two is the newcomer: it has only this client's requests (half the 4
+  // localise requests and its stats request).
+  EXPECT_EQ(std::min(counts[0], counts[1]), 3u);
+}
+
+// A robot's session continues across workers: its frames alternate between the two, and
+// each answer counts every frame so far (the client carries the session's state).
+TEST(FleetTest, ASessionSpansWorkers) {
+  auto broker = StartBroker();
+  ASSERT_NE(broker, nullptr);
+  test::TestServer a = StartWorker(*broker);
+  test::TestServer b = StartWorker(*broker);
+  ASSERT_NE(a.server, nullptr);
+  ASSERT_NE(b.server, nullptr);
+  auto client = ClientOf(*broker);
+  LocaliseOptions session;
+  session.session = "robot-7";
+  for (int i = 0; i < 6; ++i) {
+    auto answer = client->Localise(kTestMapName, test::TourFeatures(i), session);
+    ASSERT_TRUE(answer.ok()) << answer.status().ToString();
+    ASSERT_TRUE(answer->has_session());
+    EXPECT_EQ(answer->session().frames(), static_cast<uint32_t>(i + 1)) << "frame " << i;
+    EXPECT_NEAR(answer->session().location(), i, 1);
+  }
+  const std::vector<uint64_t> counts = RequestsPerWorker(client.get());
+  ASSERT_EQ(counts.size(), 2u);
+  EXPECT_EQ(counts[0], 4u);  // 3 frames each, and its stats request
+  EXPECT_EQ(counts[1], 4u);
+}
+
+TEST(FleetTest, BadSettingsAreRefusedWithTheirName) {
+  BrokerOptions same;
+  same.frontend = same.backend = "tcp://127.0.0.1:5999";
+  EXPECT_EQ(Broker::Start(same).status().code(), StatusCode::kInvalidArgument);
+  BrokerOptions bad;
+  bad.frontend = "tcp://127.0.0.1:*";
+  bad.backend = "nonsense";
+  const Status status = Broker::Start(bad).status();
+  EXPECT_EQ(status.code(), StatusCode::kIoError);
+  EXPECT_NE(status.message().find("nonsense"), std::string::npos) << status.message();
+
+  ServerOptions worker = test::TestServerOptions();
+  worker.connect = "tcp://127.0.0.1:5998";
+  worker.auth.enabled = true;
+  worker.auth.server_key = "x.key";
+  worker.auth.clients = "clients.yaml";
+  const Status refused = worker.Validate();
+  EXPECT_EQ(refused.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(refused.message().find("server.connect"), std::string::npos) << refused.message();
+}
+
+}  // namespace
+}  // namespace sceneloc
