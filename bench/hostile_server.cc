@@ -210,6 +210,26 @@ std::map<std::string, int> Fire(zmq::context_t& ctx, const std::string& endpoint
   return statuses;
 }
 
+// `connections` threads, each with its own context and one connection, each sending all of
+// `batch` at once and reading the replies for up to `wait`: the statuses, summed.
+std::map<std::string, int> FireFromThreads(const std::string& endpoint,
+                                           const std::vector<std::string>& batch, int connections,
+                                           std::chrono::seconds wait) {
+  std::map<std::string, int> total;
+  std::vector<std::thread> senders;
+  std::mutex m;
+  for (int c = 0; c < connections; ++c) {
+    senders.emplace_back([&] {
+      zmq::context_t own;
+      auto s = Fire(own, endpoint, batch, true, true, wait);
+      std::lock_guard<std::mutex> lock(m);
+      for (auto& [k, v] : s) total[k] += v;
+    });
+  }
+  for (auto& t : senders) t.join();
+  return total;
+}
+
 std::string Localise(const std::string& jpeg) {
   v1::Request r;
   r.mutable_localise()->set_map("gp");
@@ -373,19 +393,7 @@ int Run(const std::string& server_bin, const std::string& map_path, const std::s
     r.mutable_reload_map()->set_map("gp");
     // 900 per connection: ZeroMQ drops replies beyond a reader's high-water mark of 1000.
     std::vector<std::string> batch(900, r.SerializeAsString());
-    std::map<std::string, int> total;
-    std::vector<std::thread> senders;
-    std::mutex m;
-    for (int c = 0; c < 22; ++c) {
-      senders.emplace_back([&] {
-        zmq::context_t own;
-        auto s = Fire(own, endpoint, batch, true, true, std::chrono::seconds(120));
-        std::lock_guard<std::mutex> lock(m);
-        for (auto& [k, v] : s) total[k] += v;
-      });
-    }
-    for (auto& t : senders) t.join();
-    return Statuses(total);
+    return Statuses(FireFromThreads(endpoint, batch, 22, std::chrono::seconds(120)));
   });
   attack("100,000 stats + list_maps, 4 conns", [&] {
     // Cheap requests answered on the I/O thread itself, as fast as 4 connections can send
@@ -398,19 +406,7 @@ int Run(const std::string& server_bin, const std::string& map_path, const std::s
     for (int i = 0; i < 25000; ++i) {
       batch.push_back(i % 2 ? stats.SerializeAsString() : list.SerializeAsString());
     }
-    std::map<std::string, int> total;
-    std::vector<std::thread> senders;
-    std::mutex m;
-    for (int c = 0; c < 4; ++c) {
-      senders.emplace_back([&] {
-        zmq::context_t own;
-        auto s = Fire(own, endpoint, batch, true, true, std::chrono::seconds(10));
-        std::lock_guard<std::mutex> lock(m);
-        for (auto& [k, v] : s) total[k] += v;
-      });
-    }
-    for (auto& t : senders) t.join();
-    return Statuses(total);
+    return Statuses(FireFromThreads(endpoint, batch, 4, std::chrono::seconds(10)));
   });
   attack("sparse 100 GB *.scnl + SIGHUP", [&] {
     const fs::path huge = maps / "huge.scnl";

@@ -28,18 +28,8 @@ import sys
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-FAMILY = {"gp_night_same": "night_same", "gp_night_other": "night_other",
-          "corridor": "corridor"}  # every other set: the Gardens Point day family
-
-
-def ece(p, y, bins=10):
-    b = np.minimum((p * bins).astype(int), bins - 1)
-    return sum((b == i).sum() / len(p) * abs(p[b == i].mean() - y[b == i].mean())
-               for i in range(bins) if (b == i).any())
-
-
-def ece_floor(p, draws=400, rng=np.random.default_rng(0)):
-    return float(np.mean([ece(p, (rng.random(len(p)) < p).astype(float)) for _ in range(draws)]))
+# The families of sets, ECE and its sampling floor: as the recalibration check has them.
+from recalibration_check import FAMILY, ece, ece_floor  # noqa: E402
 
 
 class Query:

@@ -33,6 +33,18 @@ test::TestServer StartWorker(const Broker& broker) {
   return test::StartTestServer(options);
 }
 
+// A broker with two workers (one thread each) connected to it.
+struct Fleet {
+  Fleet() : broker(StartBroker()) {
+    if (broker == nullptr) return;
+    a = StartWorker(*broker);
+    b = StartWorker(*broker);
+  }
+  bool ok() const { return broker != nullptr && a.server != nullptr && b.server != nullptr; }
+  std::unique_ptr<Broker> broker;
+  test::TestServer a, b;
+};
+
 std::unique_ptr<Client> ClientOf(const Broker& broker, int timeout_ms = 5000) {
   ClientOptions options;
   options.timeout_ms = timeout_ms * test::kTimeScale;
@@ -57,14 +69,11 @@ std::vector<uint64_t> RequestsPerWorker(Client* client) {
 
 // Two workers behind one broker: every answer right, and both workers did some of it.
 TEST(FleetTest, WorkersBehindOneBrokerShareTheWork) {
-  auto broker = StartBroker();
-  ASSERT_NE(broker, nullptr);
-  test::TestServer a = StartWorker(*broker);
-  test::TestServer b = StartWorker(*broker);
-  ASSERT_NE(a.server, nullptr);
-  ASSERT_NE(b.server, nullptr);
-  EXPECT_EQ(a.endpoint, broker->backend());
-  auto client = ClientOf(*broker);
+  Fleet fleet;
+  ASSERT_TRUE(fleet.ok());
+  const Broker& broker = *fleet.broker;
+  EXPECT_EQ(fleet.a.endpoint, broker.backend());
+  auto client = ClientOf(broker);
   for (int i = 0; i < 8; ++i) {
     auto answer = client->Localise(kTestMapName, test::TourFeatures(i));
     ASSERT_TRUE(answer.ok()) << answer.status().ToString();
@@ -80,15 +89,12 @@ TEST(FleetTest, WorkersBehindOneBrokerShareTheWork) {
 // A worker shut down while a client runs costs no failed request (the client retries on a
 // fresh socket after its timeout), and a worker that joins later takes work at once.
 TEST(FleetTest, WorkersComeAndGoWithoutAFailedRequest) {
-  auto broker = StartBroker();
-  ASSERT_NE(broker, nullptr);
-  test::TestServer a = StartWorker(*broker);
-  test::TestServer b = StartWorker(*broker);
-  ASSERT_NE(a.server, nullptr);
-  ASSERT_NE(b.server, nullptr);
+  Fleet fleet;
+  ASSERT_TRUE(fleet.ok());
+  const Broker& broker = *fleet.broker;
   std::atomic<int> done{0};
   auto run = std::async(std::launch::async, [&] {
-    auto client = ClientOf(*broker, 1000);
+    auto client = ClientOf(broker, 1000);
     int failed = 0;
     for (int i = 0; i < 24; ++i) {
       auto answer = client->Localise(kTestMapName, test::TourFeatures(i % 12));
@@ -98,13 +104,13 @@ TEST(FleetTest, WorkersComeAndGoWithoutAFailedRequest) {
     return failed;
   });
   while (done < 6) std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  a.server.reset();  // drains what it holds and leaves; its registry goes with it
-  a.registry.reset();
+  fleet.a.server.reset();  // drains what it holds and leaves; its registry goes with it
+  fleet.a.registry.reset();
   EXPECT_EQ(run.get(), 0);
 
-  test::TestServer c = StartWorker(*broker);
+  test::TestServer c = StartWorker(broker);
   ASSERT_NE(c.server, nullptr);
-  auto client = ClientOf(*broker);
+  auto client = ClientOf(broker);
   for (int i = 0; i < 4; ++i)
     ASSERT_TRUE(client->Localise(kTestMapName, test::TourFeatures(i)).ok());
   const std::vector<uint64_t> counts = RequestsPerWorker(client.get());
@@ -117,13 +123,10 @@ TEST(FleetTest, WorkersComeAndGoWithoutAFailedRequest) {
 // A robot's session continues across workers: its frames alternate between the two, and
 // each answer counts every frame so far (the client carries the session's state).
 TEST(FleetTest, ASessionSpansWorkers) {
-  auto broker = StartBroker();
-  ASSERT_NE(broker, nullptr);
-  test::TestServer a = StartWorker(*broker);
-  test::TestServer b = StartWorker(*broker);
-  ASSERT_NE(a.server, nullptr);
-  ASSERT_NE(b.server, nullptr);
-  auto client = ClientOf(*broker);
+  Fleet fleet;
+  ASSERT_TRUE(fleet.ok());
+  const Broker& broker = *fleet.broker;
+  auto client = ClientOf(broker);
   LocaliseOptions session;
   session.session = "robot-7";
   for (int i = 0; i < 6; ++i) {
