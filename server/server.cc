@@ -667,6 +667,7 @@ class ZmqServer final : public Server {
         } else if (ParseOnWorker(j, &reply)) {
           BusyWorker busy(&busy_workers_);  // counted off even if Handle throws
           handler_.Handle(j.request, j.received, &reply, j.client);
+          if (!options_.connect.empty()) AsWorker(j.request, &reply);
           // Workers busy at the end, this one included: fewer than all means idle pool
           // threads may have helped this request (opencv_threads.h, ThreadPool).
           RecordServiceTime(MsSince(start), busy_workers_.load(std::memory_order_relaxed));
@@ -687,6 +688,19 @@ class ZmqServer final : public Server {
       }
       queued_bytes_ -= static_cast<int64_t>(j.bytes);
     }
+  }
+
+  // Worker mode: a map this process does not serve may be served by another worker of the
+  // same broker (during a map roll-out the workers of a group are out of step for a
+  // while). The reply is UNAVAILABLE, which sceneloc::Client retries on a fresh socket (so
+  // the broker hands the retry to the next worker), instead of NOT_FOUND, which it would
+  // return to the robot as final.
+  static void AsWorker(const v1::Request& request, v1::Reply* reply) {
+    if (reply->status() != v1::NOT_FOUND || !request.has_localise()) return;
+    reply->set_status(v1::UNAVAILABLE);
+    reply->set_error(reply->error() +
+                     " on this worker (worker mode: another worker of the "
+                     "broker may serve it; retry)");
   }
 
   // A request that waited for a worker longer than twice limits.max_queue_wait_ms is not

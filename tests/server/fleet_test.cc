@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <filesystem>
 #include <future>
 #include <thread>
 
@@ -140,6 +141,35 @@ TEST(FleetTest, ASessionSpansWorkers) {
   ASSERT_EQ(counts.size(), 2u);
   EXPECT_EQ(counts[0], 4u);  // 3 frames each, and its stats request
   EXPECT_EQ(counts[1], 4u);
+}
+
+// A map roll-out in progress: one worker serves the map, the other not yet. No request for
+// it fails (the worker without it replies UNAVAILABLE, which the client retries, and the
+// broker hands the retry to the other worker); a map no worker serves still fails, by name.
+TEST(FleetTest, AWorkerWithoutTheMapIsNotAFailedRequest) {
+  auto broker = StartBroker();
+  ASSERT_NE(broker, nullptr);
+  test::TestServer with = StartWorker(*broker);
+  ASSERT_NE(with.server, nullptr);
+  const std::filesystem::path empty =
+      std::filesystem::path(::testing::TempDir()) / "sceneloc_fleet_no_maps";
+  std::filesystem::create_directories(empty);
+  ServerOptions options = test::TestServerOptions();
+  options.connect = broker->backend();
+  options.threads = 1;
+  options.maps_dir = empty.string();
+  test::TestServer without = test::StartTestServerOnDir(options);
+  ASSERT_NE(without.server, nullptr);
+  auto client = ClientOf(*broker);
+  for (int i = 0; i < 6; ++i) {
+    auto answer = client->Localise(kTestMapName, test::TourFeatures(i));
+    ASSERT_TRUE(answer.ok()) << "request " << i << ": " << answer.status().ToString();
+    EXPECT_EQ(answer->locations(0).index(), i);
+  }
+  auto missing = client->Localise("nowhere", test::TourFeatures(0));
+  ASSERT_FALSE(missing.ok());
+  EXPECT_NE(missing.status().message().find("'nowhere'"), std::string::npos)
+      << missing.status().message();
 }
 
 TEST(FleetTest, BadSettingsAreRefusedWithTheirName) {
