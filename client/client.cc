@@ -7,6 +7,7 @@
 #include <thread>
 #include <zmq.hpp>
 
+#include "client/fleet_routes.h"
 #include "common/keys/keys.h"
 
 namespace sceneloc {
@@ -239,6 +240,83 @@ class ZmqClient final : public Client {
   std::uniform_real_distribution<double> jitter_{1.0, 1.5};
 };
 
+// A fleet of groups (fleet_routes.h): one ZmqClient per broker, made on first use, and each
+// request sent to its map's.
+class RoutedClient final : public Client {
+ public:
+  RoutedClient(FleetRoutes routes, const ClientOptions& options)
+      : routes_(std::move(routes)), options_(options) {}
+
+  StatusOr<v1::Reply> Call(v1::Request request) override {
+    std::string map;
+    if (request.has_localise()) map = request.localise().map();
+    if (request.has_reload_map()) map = request.reload_map().map();
+    SCENELOC_ASSIGN_OR_RETURN(Client * client, map.empty() ? First() : For(map));
+    return client->Call(std::move(request));
+  }
+
+  StatusOr<v1::LocaliseReply> Localise(const std::string& map, const std::string& jpeg,
+                                       const LocaliseOptions& options) override {
+    SCENELOC_ASSIGN_OR_RETURN(Client * client, For(map));
+    return client->Localise(map, jpeg, options);
+  }
+
+  StatusOr<v1::LocaliseReply> Localise(const std::string& map, const FeatureSet& features,
+                                       const LocaliseOptions& options) override {
+    SCENELOC_ASSIGN_OR_RETURN(Client * client, For(map));
+    return client->Localise(map, features, options);
+  }
+
+  // Every broker's maps together; the first broker that fails makes the call fail.
+  StatusOr<v1::ListMapsReply> ListMaps() override {
+    v1::ListMapsReply all;
+    for (const std::string& endpoint : routes_.Endpoints()) {
+      SCENELOC_ASSIGN_OR_RETURN(Client * client, Of(endpoint));
+      SCENELOC_ASSIGN_OR_RETURN(const v1::ListMapsReply some, client->ListMaps());
+      for (const auto& map : some.maps()) *all.add_maps() = map;
+    }
+    return all;
+  }
+
+  StatusOr<v1::ReloadMapReply> Reload(const std::string& map) override {
+    SCENELOC_ASSIGN_OR_RETURN(Client * client, For(map));
+    return client->Reload(map);
+  }
+
+  // The stats of one worker of the first broker (the default one, when there is one).
+  StatusOr<v1::StatsReply> Stats() override {
+    SCENELOC_ASSIGN_OR_RETURN(Client * client, First());
+    return client->Stats();
+  }
+
+  int64_t overload_retries() const override {
+    int64_t total = 0;
+    for (const auto& [endpoint, client] : clients_) total += client->overload_retries();
+    return total;
+  }
+
+ private:
+  StatusOr<Client*> For(const std::string& map) {
+    SCENELOC_ASSIGN_OR_RETURN(const std::string endpoint, routes_.EndpointOf(map));
+    return Of(endpoint);
+  }
+  StatusOr<Client*> First() { return Of(routes_.Endpoints().front()); }
+  StatusOr<Client*> Of(const std::string& endpoint) {
+    auto& slot = clients_[endpoint];
+    if (slot == nullptr) {
+      auto client = std::make_unique<ZmqClient>(endpoint, options_);
+      SCENELOC_RETURN_IF_ERROR(client->ReadKeys());
+      SCENELOC_RETURN_IF_ERROR(client->Open());
+      slot = std::move(client);
+    }
+    return slot.get();
+  }
+
+  const FleetRoutes routes_;
+  const ClientOptions options_;
+  std::map<std::string, std::unique_ptr<ZmqClient>> clients_;
+};
+
 }  // namespace
 
 Status ClientOptions::Validate() const {
@@ -262,6 +340,11 @@ Status ReplyStatus(const v1::Reply& reply) {
 StatusOr<std::unique_ptr<Client>> Client::Connect(const std::string& endpoint,
                                                   const ClientOptions& options) {
   SCENELOC_RETURN_IF_ERROR(options.Validate());
+  if (endpoint.rfind(kRoutesPrefix, 0) == 0) {
+    SCENELOC_ASSIGN_OR_RETURN(FleetRoutes routes,
+                              ReadFleetRoutes(endpoint.substr(sizeof(kRoutesPrefix) - 1)));
+    return std::unique_ptr<Client>(std::make_unique<RoutedClient>(std::move(routes), options));
+  }
   auto client = std::make_unique<ZmqClient>(endpoint, options);
   SCENELOC_RETURN_IF_ERROR(client->ReadKeys());
   SCENELOC_RETURN_IF_ERROR(client->Open());

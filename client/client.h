@@ -69,9 +69,13 @@ class Client {
  public:
   virtual ~Client() = default;
 
-  // Connects (lazily, as ZeroMQ does: no server needs to be up yet) to `endpoint`.
-  // Errors: invalid options or a malformed endpoint (InvalidArgument); a key file that
-  // cannot be read (its ReadKeyFile error, naming it).
+  // Connects (lazily, as ZeroMQ does: no server needs to be up yet) to `endpoint`; or,
+  // given "routes:FILE", to a fleet of groups (client/fleet_routes.h): each request goes
+  // to the broker serving its map, list_maps gathers every broker's maps, stats asks the
+  // first (default) broker. Errors: invalid options or a malformed endpoint
+  // (InvalidArgument); a key file that cannot be read (its ReadKeyFile error, naming it);
+  // a routes file that cannot be read or parsed (ReadFleetRoutes's error). A map the
+  // routes do not place fails its call with NotFound naming the routes file.
   static StatusOr<std::unique_ptr<Client>> Connect(const std::string& endpoint,
                                                    const ClientOptions& options = {});
 

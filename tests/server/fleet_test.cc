@@ -6,10 +6,12 @@
 
 #include <atomic>
 #include <filesystem>
+#include <fstream>
 #include <future>
 #include <thread>
 
 #include "client/client.h"
+#include "client/fleet_routes.h"
 #include "server/broker.h"
 #include "tests/server/server_test_support.h"
 
@@ -170,6 +172,59 @@ TEST(FleetTest, AWorkerWithoutTheMapIsNotAFailedRequest) {
   ASSERT_FALSE(missing.ok());
   EXPECT_NE(missing.status().message().find("'nowhere'"), std::string::npos)
       << missing.status().message();
+}
+
+// Two groups, each a broker with a worker serving its own map, and a routes file: one
+// client (Client::Connect("routes:FILE")) reaches both maps, lists both, and is told by name
+// when the routes place a map nowhere.
+TEST(FleetTest, GroupsOfMapsThroughARoutesFile) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::path(::testing::TempDir()) / "sceneloc_fleet_groups";
+  fs::remove_all(dir);
+  fs::create_directories(dir / "group1");
+  fs::create_directories(dir / "group2");
+  fs::copy_file(test::TestMapPath(), dir / "group1" / "first.scnl");
+  fs::copy_file(test::TestMapPath(), dir / "group2" / "second.scnl");
+  std::vector<std::unique_ptr<Broker>> brokers;
+  std::vector<test::TestServer> workers;
+  for (const char* group : {"group1", "group2"}) {
+    brokers.push_back(StartBroker());
+    ASSERT_NE(brokers.back(), nullptr);
+    ServerOptions options = test::TestServerOptions();
+    options.connect = brokers.back()->backend();
+    options.threads = 1;
+    options.maps_dir = (dir / group).string();
+    workers.push_back(test::StartTestServerOnDir(options));
+    ASSERT_NE(workers.back().server, nullptr);
+  }
+  const std::string routes = (dir / "routes.yaml").string();
+  std::ofstream(routes) << "maps:\n  first: " << brokers[0]->frontend()
+                        << "\n  second: " << brokers[1]->frontend() << "\n";
+  auto client = Client::Connect(std::string(kRoutesPrefix) + routes);
+  ASSERT_TRUE(client.ok()) << client.status().ToString();
+  for (const char* map : {"first", "second"}) {
+    auto answer = (*client)->Localise(map, test::TourFeatures(4));
+    ASSERT_TRUE(answer.ok()) << map << ": " << answer.status().ToString();
+    EXPECT_EQ(answer->locations(0).index(), 4);
+    EXPECT_EQ(answer->map().name(), map);
+  }
+  auto listed = (*client)->ListMaps();
+  ASSERT_TRUE(listed.ok()) << listed.status().ToString();
+  ASSERT_EQ(listed->maps_size(), 2);
+  auto nowhere = (*client)->Localise("third", test::TourFeatures(4));
+  EXPECT_EQ(nowhere.status().code(), StatusCode::kNotFound);
+  EXPECT_NE(nowhere.status().message().find("routes.yaml"), std::string::npos)
+      << nowhere.status().message();
+
+  // Routes files that cannot work are refused when connecting, naming the file.
+  std::ofstream(routes) << "mapz:\n  first: tcp://127.0.0.1:1\n";
+  const Status bad = Client::Connect(std::string(kRoutesPrefix) + routes).status();
+  EXPECT_EQ(bad.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(bad.message().find("unknown key 'mapz'"), std::string::npos) << bad.message();
+  EXPECT_EQ(
+      Client::Connect(std::string(kRoutesPrefix) + (dir / "none.yaml").string()).status().code(),
+      StatusCode::kNotFound);
+  fs::remove_all(dir);
 }
 
 TEST(FleetTest, BadSettingsAreRefusedWithTheirName) {
