@@ -301,15 +301,14 @@ class RoutedClient final : public Client {
     return Of(endpoint);
   }
   StatusOr<Client*> First() { return Of(routes_.Endpoints().front()); }
+  // The client of `endpoint`, made on first use; one that cannot be made is not kept.
   StatusOr<Client*> Of(const std::string& endpoint) {
-    auto& slot = clients_[endpoint];
-    if (slot == nullptr) {
-      auto client = std::make_unique<ZmqClient>(endpoint, options_);
-      SCENELOC_RETURN_IF_ERROR(client->ReadKeys());
-      SCENELOC_RETURN_IF_ERROR(client->Open());
-      slot = std::move(client);
-    }
-    return slot.get();
+    const auto it = clients_.find(endpoint);
+    if (it != clients_.end()) return it->second.get();
+    auto client = std::make_unique<ZmqClient>(endpoint, options_);
+    SCENELOC_RETURN_IF_ERROR(client->ReadKeys());
+    SCENELOC_RETURN_IF_ERROR(client->Open());
+    return (clients_[endpoint] = std::move(client)).get();
   }
 
   const FleetRoutes routes_;

@@ -216,6 +216,18 @@ TEST(FleetTest, GroupsOfMapsThroughARoutesFile) {
   EXPECT_NE(nowhere.status().message().find("routes.yaml"), std::string::npos)
       << nowhere.status().message();
 
+  // A broker's client that cannot be made (here: key files that do not exist) fails the
+  // call with its reason and leaves the routed client usable.
+  ClientOptions keyed;
+  keyed.key_file = (dir / "missing.key").string();
+  keyed.server_key_file = (dir / "missing.pub").string();
+  auto unkeyed = Client::Connect(std::string(kRoutesPrefix) + routes, keyed);
+  ASSERT_TRUE(unkeyed.ok()) << unkeyed.status().ToString();
+  const Status no_key = (*unkeyed)->Localise("first", test::TourFeatures(4)).status();
+  EXPECT_FALSE(no_key.ok());
+  EXPECT_NE(no_key.message().find("missing.key"), std::string::npos) << no_key.message();
+  EXPECT_EQ((*unkeyed)->overload_retries(), 0);
+
   // Routes files that cannot work are refused when connecting, naming the file.
   std::ofstream(routes) << "mapz:\n  first: tcp://127.0.0.1:1\n";
   const Status bad = Client::Connect(std::string(kRoutesPrefix) + routes).status();
