@@ -33,6 +33,7 @@ RUN apt-get update -qq \
       libopencv-core406 libopencv-imgproc406 libopencv-imgcodecs406 \
       libopencv-features2d406 libopencv-calib3d406 \
       libprotobuf32 libzmq5 libspdlog1.10 libfmt9 libyaml-cpp0.7 \
+      libprometheus-cpp-core1.0 libcivetweb1 \
  && rm -rf /var/lib/apt/lists/*
 COPY --from=build /build/server/sceneloc-server /build/server/sceneloc-broker /build/client/sceneloc \
      /build/tools/sceneloc-train /build/tools/sceneloc-gentour /usr/local/bin/

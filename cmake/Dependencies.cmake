@@ -10,6 +10,10 @@ find_package(CLI11 REQUIRED)
 # libzmq 4.3 (cppzmq-dev ships a CMake config that finds libzmq through pkg-config).
 find_package(Protobuf REQUIRED)
 find_package(cppzmq REQUIRED)
+# The server's operator endpoint: prometheus-cpp 1.0's core (metrics and their text format;
+# prometheus-cpp-dev) and civetweb 1.15 (its HTTP server; libcivetweb-dev).
+find_package(prometheus-cpp CONFIG REQUIRED)
+find_package(civetweb CONFIG REQUIRED)
 if(SCENELOC_BUILD_TESTS)
   find_package(GTest REQUIRED)
 endif()

@@ -11,9 +11,12 @@ packages=(
   libopencv-dev libeigen3-dev
   libzmq3-dev cppzmq-dev
   libprotobuf-dev protobuf-compiler
+  prometheus-cpp-dev libcivetweb-dev
   libspdlog-dev libfmt-dev libyaml-cpp-dev libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev
   python3
+  # The Python client (client/python) and its tests, on Debian's interpreter.
+  python3-zmq python3-protobuf python3-pytest python3-venv python3-pip python3-setuptools
 )
 for arg in "$@"; do
   case $arg in

@@ -42,6 +42,9 @@ class RequestHandler {
   // health check is answered even when every worker is busy.
   static bool IsCheap(const v1::Request& request);
 
+  // The live sessions of every map (thread-safe).
+  SessionCounts sessions() const { return sessions_->Counts(); }
+
   // InvalidArgument unless the request names a map by a plain file stem (one that cannot
   // reach outside the maps directory).
   static Status CheckReload(const v1::ReloadMapRequest& request);

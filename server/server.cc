@@ -6,6 +6,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -17,7 +18,10 @@
 #include "proto/sceneloc.pb.h"
 #include "proto/wire.h"
 #include "server/bounded_queue.h"
+#include "server/health.h"
+#include "server/http_endpoint.h"
 #include "server/map_loader.h"
+#include "server/metrics.h"
 #include "server/request_handler.h"
 #include "server/server_stats.h"
 #include "server/zap_handler.h"
@@ -29,6 +33,12 @@ using Clock = std::chrono::steady_clock;
 
 constexpr char kRepliesEndpoint[] = "inproc://sceneloc-replies";
 constexpr char kControlEndpoint[] = "inproc://sceneloc-control";
+// Worker mode: the frontend's connection events (zmq_socket_monitor), for readiness.
+constexpr char kMonitorEndpoint[] = "inproc://sceneloc-monitor";
+// The I/O thread wakes at least this often, so the liveness probe sees it turn.
+constexpr std::chrono::milliseconds kMaxPollWait{1000};
+// Worker mode: how often a missing broker is logged.
+constexpr std::chrono::seconds kBrokerWarningInterval{10};
 // reload_map requests waiting for the loader at once (reloads of one map coalesce into
 // one load); more get OVERLOADED.
 constexpr size_t kMaxWaitingReloads = 16;
@@ -163,6 +173,7 @@ class ZmqServer final : public Server {
                   options.connect.empty() ? zmq::socket_type::router : zmq::socket_type::dealer),
         replies_(context_, zmq::socket_type::pull),
         control_(context_, zmq::socket_type::pull),
+        monitor_(context_, zmq::socket_type::pair),
         loader_push_(context_, zmq::socket_type::push) {}
 
   ~ZmqServer() override { Shutdown(); }
@@ -187,6 +198,12 @@ class ZmqServer final : public Server {
         frontend_.bind(options_.endpoint);
         endpoint_ = frontend_.get(zmq::sockopt::last_endpoint);
       } else {
+        // Connection events are watched before connecting, so the first one is seen.
+        if (zmq_socket_monitor(frontend_.handle(), kMonitorEndpoint,
+                               ZMQ_EVENT_CONNECTED | ZMQ_EVENT_DISCONNECTED) != 0) {
+          throw zmq::error_t();
+        }
+        monitor_.connect(kMonitorEndpoint);
         frontend_.connect(options_.connect);
         endpoint_ = options_.connect;
       }
@@ -217,6 +234,22 @@ class ZmqServer final : public Server {
     return Status::Ok();
   }
 
+  // Serves options.metrics_endpoint (server/health.h), when set.
+  Status StartOperatorHttp() {
+    if (options_.metrics_endpoint.empty()) return Status::Ok();
+    auto http = StartOperatorEndpoint(
+        options_.metrics_endpoint, [this] { return metrics_.Render(Gauges(), *registry_); },
+        [this] { return Health(); });
+    if (!http.ok()) return http.status();
+    http_ = std::move(http).value();
+    spdlog::info("metrics and health on http://{}/metrics, /healthz, /readyz", http_->address());
+    return Status::Ok();
+  }
+
+  std::string metrics_endpoint() const override {
+    return http_ != nullptr ? http_->address() : std::string();
+  }
+
   std::string endpoint() const override { return endpoint_; }
 
   void ReloadAll() override {
@@ -231,6 +264,7 @@ class ZmqServer final : public Server {
   void Shutdown() override {
     std::lock_guard<std::mutex> lock(shutdown_mutex_);
     if (!io_thread_.joinable()) return;
+    draining_ = true;  // readiness fails from now on; liveness holds until the end
     try {
       zmq::socket_t stop(context_, zmq::socket_type::push);
       stop.set(zmq::sockopt::linger, -1);
@@ -240,6 +274,7 @@ class ZmqServer final : public Server {
       spdlog::error("shutdown: cannot signal the I/O thread: {}", e.what());
     }
     io_thread_.join();
+    if (http_ != nullptr) http_->Stop();
   }
 
  private:
@@ -253,8 +288,11 @@ class ZmqServer final : public Server {
       std::vector<zmq::pollitem_t> items = {{frontend_.handle(), 0, ZMQ_POLLIN, 0},
                                             {replies_.handle(), 0, ZMQ_POLLIN, 0},
                                             {control_.handle(), 0, ZMQ_POLLIN, 0}};
+      if (!options_.connect.empty()) items.push_back({monitor_.handle(), 0, ZMQ_POLLIN, 0});
       try {
         zmq::poll(items, PollTimeout(drain_deadline, next_summary));
+        io_woke_.store(Clock::now().time_since_epoch().count(), std::memory_order_relaxed);
+        if (items.size() > 3 && (items[3].revents & ZMQ_POLLIN)) ReadMonitorEvent();
         if (items[1].revents & ZMQ_POLLIN) ForwardReply();
         if (items[0].revents & ZMQ_POLLIN) ReadRequest(drain_deadline.has_value());
         if (items[2].revents & ZMQ_POLLIN) {
@@ -263,6 +301,7 @@ class ZmqServer final : public Server {
           drain_deadline =
               Clock::now() + std::chrono::duration_cast<Clock::duration>(
                                  std::chrono::duration<double>(options_.drain_timeout_s));
+          draining_ = true;
           spdlog::info("shutting down: draining {} request(s) in flight", outstanding_);
         }
       } catch (const zmq::error_t& e) {
@@ -270,6 +309,7 @@ class ZmqServer final : public Server {
         spdlog::error("I/O thread: ZeroMQ error: {}", e.what());
         stats_.RecordReply("INTERNAL", false, 0);
       }
+      WarnIfNoBroker();
       if (options_.summary_interval_s > 0 && Clock::now() >= next_summary) {
         LogSummary();
         next_summary = Clock::now() + SummaryInterval();
@@ -288,7 +328,8 @@ class ZmqServer final : public Server {
     Clock::time_point wake = next_summary;
     if (deadline && *deadline < wake) wake = *deadline;
     const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(wake - Clock::now());
-    return std::max(ms, std::chrono::milliseconds(0)) + std::chrono::milliseconds(1);
+    return std::min(std::max(ms, std::chrono::milliseconds(0)) + std::chrono::milliseconds(1),
+                    kMaxPollWait);
   }
 
   // Reads one multipart message, keeping at most kMaxFrames frames (the rest are read and
@@ -323,7 +364,7 @@ class ZmqServer final : public Server {
     const uint64_t peeked_id = PeekRequestId(in.payload);
     auto refuse = [&](v1::StatusCode code, const std::string& error) {
       const v1::Reply reply = ErrorReply(peeked_id, code, error);
-      RecordAndLog(&stats_, "request", reply, received);
+      Record("request", nullptr, reply, received);
       ToClient(in.identity, in.delimited, reply);
     };
     if (in.frames > kMaxFrames || (in.frames == 3 && !in.delimited) || in.frames < 2) {
@@ -388,7 +429,7 @@ class ZmqServer final : public Server {
     if (job->parsed && RequestHandler::IsCheap(job->request)) {
       v1::Reply reply;
       handler_.Handle(job->request, job->received, &reply);
-      RecordAndLog(&stats_, KindName(job->request), reply, job->received);
+      Record(KindName(job->request), &job->request, reply, job->received);
       ToClient(job->identity, job->delimited, reply);
       return;
     }
@@ -410,7 +451,8 @@ class ZmqServer final : public Server {
     }
     const uint64_t id = job->parsed ? job->request.request_id() : PeekRequestId(job->raw);
     const v1::Reply reply = OverloadedReply(id, refusal);
-    RecordAndLog(&stats_, job->parsed ? KindName(job->request) : "localise", reply, job->received);
+    Record(job->parsed ? KindName(job->request) : "localise", job->parsed ? &job->request : nullptr,
+           reply, job->received);
     ToClient(job->identity, job->delimited, reply);
   }
 
@@ -493,7 +535,7 @@ class ZmqServer final : public Server {
     const uint64_t id = job->request.request_id();
     auto refuse = [&](v1::StatusCode code, const std::string& error) {
       const v1::Reply reply = ErrorReply(id, code, error);
-      RecordAndLog(&stats_, "reload_map", reply, job->received);
+      Record("reload_map", &job->request, reply, job->received);
       ToClient(job->identity, job->delimited, reply);
     };
     const Status checked = RequestHandler::CheckReload(job->request.reload_map());
@@ -510,7 +552,7 @@ class ZmqServer final : public Server {
             reply = ErrorReply(shared->request.request_id(), v1::UNAVAILABLE,
                                "server shut down before the reload was started");
           }
-          RecordAndLog(&stats_, "reload_map", reply, shared->received);
+          Record("reload_map", &shared->request, reply, shared->received);
           try {
             SendReply(loader_push_, shared->identity, shared->delimited, reply);
           } catch (const zmq::error_t& e) {
@@ -528,7 +570,7 @@ class ZmqServer final : public Server {
       const v1::Reply reply = OverloadedReply(
           id,
           {std::to_string(kMaxWaitingReloads) + " reload_map requests are already waiting", 1000});
-      RecordAndLog(&stats_, "reload_map", reply, job->received);
+      Record("reload_map", &job->request, reply, job->received);
       return ToClient(job->identity, job->delimited, reply);
     }
     refuse(v1::UNAVAILABLE, "server is shutting down");
@@ -582,6 +624,7 @@ class ZmqServer final : public Server {
     }
     if (why == nullptr) return;
     stats_.RecordUndelivered();
+    metrics_.RecordUndelivered();
     ++undelivered_since_log_;
     const Clock::time_point now = Clock::now();
     if (now - last_undelivered_log_ >= std::chrono::seconds(1)) {
@@ -606,7 +649,7 @@ class ZmqServer final : public Server {
     for (std::unique_ptr<Job>& job : queue_.Close()) {
       const v1::Reply reply = ErrorReply(job->request.request_id(), v1::UNAVAILABLE,
                                          "server shut down before this request was started");
-      RecordAndLog(&stats_, KindName(job->request), reply, job->received);
+      Record(KindName(job->request), &job->request, reply, job->received);
       ToClient(job->identity, job->delimited, reply);
       --outstanding_;
     }
@@ -625,7 +668,9 @@ class ZmqServer final : public Server {
     frontend_.close();
     replies_.close();
     control_.close();
+    monitor_.close();
     loader_push_.close();  // the loader thread has ended
+    io_thread_done_ = true;
   }
 
   void LogSummary() const {
@@ -647,6 +692,88 @@ class ZmqServer final : public Server {
       spdlog::info("auth: {} connection(s) admitted, {} refused", zap_->admitted(),
                    zap_->refused());
     }
+  }
+
+  // Counts a reply (stats and metrics) and logs it at debug. `request` is null when the
+  // request could not be parsed.
+  void Record(const char* kind, const v1::Request* request, const v1::Reply& reply,
+              Clock::time_point received) {
+    RecordAndLog(&stats_, kind, reply, received);
+    const bool ok_localise = reply.status() == v1::OK && reply.has_localise();
+    metrics_.RecordReply(kind, v1::StatusCode_Name(reply.status()), MapLabel(request, reply),
+                         MsSince(received), ok_localise ? &reply.localise().timings() : nullptr);
+  }
+
+  // The map a reply concerned, for the metrics' `map` label: one that answered, or the
+  // request's when it is loaded; "" otherwise (so made-up names add no series).
+  std::string MapLabel(const v1::Request* request, const v1::Reply& reply) const {
+    if (reply.has_localise()) return reply.localise().map().name();
+    if (reply.has_reload_map()) return reply.reload_map().map().version().name();
+    if (request == nullptr) return {};
+    const std::string& name = request->has_localise()     ? request->localise().map()
+                              : request->has_reload_map() ? request->reload_map().map()
+                                                          : std::string();
+    return !name.empty() && registry_->Get(name) != nullptr ? name : std::string();
+  }
+
+  // Worker mode: one event of the frontend's connection to the broker.
+  void ReadMonitorEvent() {
+    zmq::message_t event, address;
+    if (!monitor_.recv(event, zmq::recv_flags::dontwait)) return;
+    if (event.more()) (void)monitor_.recv(address, zmq::recv_flags::dontwait);
+    if (event.size() < sizeof(uint16_t)) return;
+    uint16_t id = 0;
+    std::memcpy(&id, event.data(), sizeof(id));
+    if (id == ZMQ_EVENT_CONNECTED) {
+      spdlog::info("connected to the broker at {}", options_.connect);
+      broker_connected_ = true;
+    } else if (id == ZMQ_EVENT_DISCONNECTED) {
+      spdlog::warn("lost the broker at {}; reconnecting", options_.connect);
+      broker_connected_ = false;
+      last_broker_warning_ = Clock::now();
+    }
+  }
+
+  // Worker mode: says so, every kBrokerWarningInterval, while no broker is connected (one
+  // that is down at start, or gone): ZeroMQ keeps trying, the worker keeps waiting.
+  void WarnIfNoBroker() {
+    if (options_.connect.empty() || broker_connected_) return;
+    const Clock::time_point now = Clock::now();
+    if (now - last_broker_warning_ < kBrokerWarningInterval) return;
+    if (last_broker_warning_ != Clock::time_point{}) {
+      spdlog::warn("no broker at {} yet; still trying (is sceneloc-broker running there?)",
+                   options_.connect);
+    }
+    last_broker_warning_ = now;
+  }
+
+  // What the metrics read when scraped (any thread).
+  ServerGauges Gauges() const {
+    const StatsSnapshot s = stats_.Snapshot();
+    const SessionCounts sessions = handler_.sessions();
+    ServerGauges g;
+    g.uptime_s = s.uptime_s;
+    g.queue_depth = queue_.size();
+    g.in_flight = s.in_flight;
+    g.workers = options_.threads;
+    g.busy_workers = busy_workers_.load(std::memory_order_relaxed);
+    g.sessions = sessions.live;
+    g.session_bytes = sessions.memory_bytes;
+    g.draining = draining_;
+    return g;
+  }
+
+  // What the probes judge (any thread).
+  ServerHealth Health() const {
+    ServerHealth h;
+    const Clock::time_point woke(Clock::duration(io_woke_.load(std::memory_order_relaxed)));
+    h.io_silence = io_thread_done_ ? std::chrono::hours(1) : Clock::now() - woke;
+    h.draining = draining_;
+    h.maps_loaded = registry_->List().size();
+    h.worker_mode = !options_.connect.empty();
+    h.broker_connected = broker_connected_;
+    h.broker = options_.connect;
+    return h;
   }
 
   // --- worker threads ---
@@ -672,7 +799,7 @@ class ZmqServer final : public Server {
           // threads may have helped this request (opencv_threads.h, ThreadPool).
           RecordServiceTime(MsSince(start), busy_workers_.load(std::memory_order_relaxed));
         }
-        RecordAndLog(&stats_, KindName(j.request), reply, j.received);
+        Record(KindName(j.request), &j.request, reply, j.received);
         SendReply(push, j.identity, j.delimited, reply);
       } catch (const zmq::error_t& e) {
         spdlog::error("worker: cannot pass a reply to the I/O thread: {}", e.what());
@@ -785,6 +912,14 @@ class ZmqServer final : public Server {
   zmq::socket_t replies_;
   zmq::socket_t control_;
   zmq::socket_t loader_push_;  // owned by the loader thread once it runs
+  zmq::socket_t monitor_;      // worker mode: frontend_'s events; I/O thread
+  Metrics metrics_;
+  // When the I/O thread last woke (steady clock ticks), and whether it has ended.
+  std::atomic<Clock::rep> io_woke_{Clock::now().time_since_epoch().count()};
+  std::atomic<bool> io_thread_done_{false};
+  std::atomic<bool> draining_{false};
+  std::atomic<bool> broker_connected_{false};  // worker mode
+  Clock::time_point last_broker_warning_{};    // worker mode; I/O thread
   // With auth.enabled; declared after context_ so that it (and its socket) ends first.
   std::unique_ptr<ZapHandler> zap_;
   size_t outstanding_ = 0;  // queued or running jobs; I/O thread only
@@ -813,6 +948,9 @@ class ZmqServer final : public Server {
   std::unique_ptr<MapLoader> loader_;  // set by StartThreads(); stopped by FinishDrain()
   std::mutex shutdown_mutex_;
   std::thread io_thread_;  // guarded by shutdown_mutex_ after StartThreads()
+  // The operator endpoint (options.metrics_endpoint); declared last so that it stops
+  // first, before anything its handlers read.
+  std::unique_ptr<HttpEndpoint> http_;
 };
 
 }  // namespace
@@ -822,6 +960,8 @@ StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options, Ma
   SCENELOC_RETURN_IF_ERROR(options.Validate());
   auto server = std::make_unique<ZmqServer>(options, registry, engine_pool);
   SCENELOC_RETURN_IF_ERROR(server->Bind());
+  // The operator endpoint first: a taken port stops the start before anything serves.
+  SCENELOC_RETURN_IF_ERROR(server->StartOperatorHttp());
   SCENELOC_RETURN_IF_ERROR(server->StartThreads());
   spdlog::info("serving {} map(s) {} {} with {} worker(s), queue capacity {}{}",
                registry->List().size(), options.connect.empty() ? "on" : "as a worker of broker",

@@ -52,6 +52,10 @@ class Server {
   // the system chose. In worker mode (options.connect), the broker backend connected to.
   virtual std::string endpoint() const = 0;
 
+  // The operator endpoint's HOST:PORT actually listened on (options.metrics_endpoint, with
+  // port 0 become the chosen port; server/health.h); empty when not set.
+  virtual std::string metrics_endpoint() const = 0;
+
   // Queues a reload of every map file in options.maps_dir on the loader thread, and the
   // unloading of maps whose file is gone (what SIGHUP does). Returns at once.
   virtual void ReloadAll() = 0;

@@ -6,6 +6,7 @@
 
 #include "common/config/config.h"
 #include "common/keys/keys.h"
+#include "server/http_endpoint.h"
 
 namespace sceneloc {
 namespace {
@@ -25,6 +26,9 @@ SettingTable Fields(ServerOptions* o) {
       {"server", "connect", &o->connect, 0, 0,
        "worker mode: connect to a sceneloc-broker backend, e.g. tcp://host:5556, instead of "
        "binding endpoint"},
+      {"server", "metrics_endpoint", &o->metrics_endpoint, 0, 0,
+       "HOST:PORT for Prometheus /metrics and the /healthz, /readyz probes, e.g. "
+       "127.0.0.1:9464 (empty = none)"},
       {"server", "threads", &o->threads, 1, 256, "worker threads"},
       {"server", "queue_capacity", &o->queue_capacity, 1, 1000000,
        "requests waiting for a worker at most; more get OVERLOADED"},
@@ -125,6 +129,10 @@ Status ServerOptions::Validate() const {
   if (!(drain_timeout_s >= 0)) return InvalidArgument("drain_timeout_s must be >= 0");
   SCENELOC_RETURN_IF_ERROR(limits.Validate());
   SCENELOC_RETURN_IF_ERROR(auth.Validate());
+  if (!metrics_endpoint.empty()) {
+    const Status address = ValidateHttpAddress(metrics_endpoint);
+    if (!address.ok()) return InvalidArgument("server.metrics_endpoint: " + address.message());
+  }
   if (!connect.empty() && auth.enabled) {
     return InvalidArgument(
         "server.connect (worker mode) cannot be combined with auth.enabled: clients "

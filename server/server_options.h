@@ -102,6 +102,10 @@ struct ServerOptions {
   // binding `endpoint`, e.g. tcp://broker-host:5556. Clients talk to the broker's frontend
   // and do not change; any number of workers may connect and leave. Empty: bind.
   std::string connect;
+  // HOST:PORT of the operator endpoint: Prometheus /metrics and the /healthz and /readyz
+  // probes over HTTP (server/health.h), e.g. 127.0.0.1:9464 (port 0: any free port).
+  // Empty: none.
+  std::string metrics_endpoint;
   // Worker threads that localise requests (also the engine's ParallelFor width).
   int threads = 2;
   // Requests waiting for a worker at most; one more gets an immediate OVERLOADED reply.

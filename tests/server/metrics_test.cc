@@ -1,0 +1,249 @@
+// The operator endpoint over real HTTP on loopback: Prometheus metrics that count what a
+// real server did, the liveness and readiness probes following its state (maps, shutdown,
+// a worker's broker), and the errors an operator can cause (a taken port, a bad address).
+#include <arpa/inet.h>
+#include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <stdexcept>
+#include <thread>
+
+#include "client/client.h"
+#include "server/broker.h"
+#include "server/health.h"
+#include "server/http_endpoint.h"
+#include "tests/server/server_test_support.h"
+
+namespace sceneloc {
+namespace {
+
+using test::kTestMapName;
+
+struct HttpResult {
+  int status = 0;
+  std::string headers;
+  std::string body;
+};
+
+// One HTTP/1.1 request to HOST:PORT over a plain TCP socket, read to the end.
+HttpResult Http(const std::string& address, const std::string& method, const std::string& path) {
+  const size_t colon = address.rfind(':');
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(static_cast<uint16_t>(std::stoi(address.substr(colon + 1))));
+  inet_pton(AF_INET, address.substr(0, colon).c_str(), &addr.sin_addr);
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  HttpResult result;
+  if (connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) != 0) {
+    close(fd);
+    return result;
+  }
+  const std::string request =
+      method + " " + path + " HTTP/1.1\r\nHost: " + address + "\r\nConnection: close\r\n\r\n";
+  (void)send(fd, request.data(), request.size(), 0);
+  std::string response;
+  char buffer[4096];
+  for (ssize_t n; (n = recv(fd, buffer, sizeof(buffer), 0)) > 0;) {
+    response.append(buffer, static_cast<size_t>(n));
+  }
+  close(fd);
+  const size_t end_of_headers = response.find("\r\n\r\n");
+  if (response.rfind("HTTP/1.1 ", 0) != 0 || end_of_headers == std::string::npos) return result;
+  result.status = std::stoi(response.substr(9, 3));
+  result.headers = response.substr(0, end_of_headers);
+  result.body = response.substr(end_of_headers + 4);
+  return result;
+}
+
+HttpResult Get(const Server& server, const std::string& path) {
+  return Http(server.metrics_endpoint(), "GET", path);
+}
+
+ServerOptions WithMetrics(ServerOptions options) {
+  options.metrics_endpoint = "127.0.0.1:0";
+  return options;
+}
+
+std::unique_ptr<Client> ClientOf(const std::string& endpoint) {
+  auto client = Client::Connect(endpoint);
+  EXPECT_TRUE(client.ok()) << client.status().ToString();
+  return client.ok() ? std::move(client).value() : nullptr;
+}
+
+bool Contains(const std::string& text, const std::string& part) {
+  return text.find(part) != std::string::npos;
+}
+
+TEST(OperatorEndpointTest, MetricsCountWhatTheServerDid) {
+  test::TestServer s = test::StartTestServer(WithMetrics(test::TestServerOptions()));
+  ASSERT_NE(s.server, nullptr);
+  auto client = ClientOf(s.endpoint);
+  ASSERT_NE(client, nullptr);
+  ASSERT_TRUE(client->Localise(kTestMapName, test::TourJpegs()[3]).ok());
+  ASSERT_TRUE(client->Localise(kTestMapName, test::TourFeatures(4)).ok());
+  EXPECT_EQ(client->Localise("made-up-name", test::TourFeatures(4)).status().code(),
+            StatusCode::kNotFound);
+  ASSERT_TRUE(client->Stats().ok());
+
+  const HttpResult metrics = Get(*s.server, "/metrics");
+  ASSERT_EQ(metrics.status, 200) << metrics.body;
+  EXPECT_TRUE(Contains(metrics.headers, "text/plain; version=0.0.4")) << metrics.headers;
+  const std::string& text = metrics.body;
+  EXPECT_TRUE(Contains(
+      text, "sceneloc_requests_total{kind=\"localise\",map=\"synthetic\",status=\"OK\"} 2"))
+      << text;
+  // A map that is not loaded is counted under "": a client cannot add series by names.
+  EXPECT_TRUE(
+      Contains(text, "sceneloc_requests_total{kind=\"localise\",map=\"\",status=\"NOT_FOUND\"} 1"));
+  EXPECT_FALSE(Contains(text, "made-up-name"));
+  EXPECT_TRUE(Contains(text, "sceneloc_requests_total{kind=\"stats\",map=\"\",status=\"OK\"} 1"));
+  EXPECT_TRUE(Contains(text, "sceneloc_request_duration_seconds_count{kind=\"localise\"} 3"));
+  // Decode and extraction ran for the JPEG only; scoring for both.
+  EXPECT_TRUE(Contains(text, "sceneloc_stage_duration_seconds_count{stage=\"decode\"} 1"));
+  EXPECT_TRUE(Contains(text, "sceneloc_stage_duration_seconds_count{stage=\"descriptor\"} 2"));
+  EXPECT_TRUE(Contains(text, "sceneloc_maps_loaded 1"));
+  EXPECT_TRUE(Contains(text, "sceneloc_map_generation{map=\"synthetic\"} 1"));
+  EXPECT_TRUE(Contains(text, "sceneloc_map_locations{map=\"synthetic\"} " +
+                                 std::to_string(test::kTestTourLocations)));
+  EXPECT_TRUE(Contains(text, "sceneloc_map_load_failures_total 0"));
+  EXPECT_TRUE(Contains(text, "sceneloc_workers 2"));
+  EXPECT_TRUE(Contains(text, "sceneloc_queue_depth 0"));
+}
+
+TEST(OperatorEndpointTest, SessionsAreCounted) {
+  test::TestServer s = test::StartTestServer(WithMetrics(test::TestServerOptions()));
+  ASSERT_NE(s.server, nullptr);
+  auto client = ClientOf(s.endpoint);
+  ASSERT_NE(client, nullptr);
+  LocaliseOptions options;
+  for (const char* robot : {"robot-1", "robot-2"}) {
+    options.session = robot;
+    ASSERT_TRUE(client->Localise(kTestMapName, test::TourFeatures(1), options).ok());
+  }
+  EXPECT_TRUE(Contains(Get(*s.server, "/metrics").body, "sceneloc_sessions 2"));
+}
+
+TEST(OperatorEndpointTest, ReadyWithAMapAndNotWithout) {
+  test::TestServer s = test::StartTestServer(WithMetrics(test::TestServerOptions()));
+  ASSERT_NE(s.server, nullptr);
+  EXPECT_EQ(Get(*s.server, "/healthz").status, 200);
+  const HttpResult ready = Get(*s.server, "/readyz");
+  EXPECT_EQ(ready.status, 200) << ready.body;
+  EXPECT_TRUE(Contains(ready.body, "1 map(s) loaded"));
+
+  const std::string empty = ::testing::TempDir() + "/sceneloc_no_maps";
+  std::filesystem::create_directories(empty);
+  ServerOptions options = WithMetrics(test::TestServerOptions());
+  options.maps_dir = empty;
+  test::TestServer bare = test::StartTestServerOnDir(options);
+  ASSERT_NE(bare.server, nullptr);
+  EXPECT_EQ(Get(*bare.server, "/healthz").status, 200);  // alive: nothing to restart for
+  const HttpResult not_ready = Get(*bare.server, "/readyz");
+  EXPECT_EQ(not_ready.status, 503);
+  EXPECT_TRUE(Contains(not_ready.body, "no map loaded")) << not_ready.body;
+}
+
+// A worker whose broker is down is alive but not ready; it becomes ready once the broker
+// comes up at that address (ZeroMQ reconnects by itself).
+TEST(OperatorEndpointTest, AWorkerIsReadyOnlyWithItsBroker) {
+  BrokerOptions broker_options;
+  broker_options.frontend = "tcp://127.0.0.1:*";
+  broker_options.backend = "tcp://127.0.0.1:*";
+  auto first = Broker::Start(broker_options);
+  ASSERT_TRUE(first.ok()) << first.status().ToString();
+  broker_options.backend = (*first)->backend();  // a port known to be free once it stops
+  (*first)->Stop();
+  first->reset();
+
+  ServerOptions options = WithMetrics(test::TestServerOptions());
+  options.connect = broker_options.backend;
+  test::TestServer worker = test::StartTestServer(options);
+  ASSERT_NE(worker.server, nullptr);
+  EXPECT_EQ(Get(*worker.server, "/healthz").status, 200);
+  const HttpResult waiting = Get(*worker.server, "/readyz");
+  EXPECT_EQ(waiting.status, 503);
+  EXPECT_TRUE(Contains(waiting.body, "not connected to the broker at " + options.connect))
+      << waiting.body;
+
+  auto broker = Broker::Start(broker_options);
+  ASSERT_TRUE(broker.ok()) << broker.status().ToString();
+  int status = 0;
+  for (int i = 0; i < 100 * test::kTimeScale && status != 200; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    status = Get(*worker.server, "/readyz").status;
+  }
+  EXPECT_EQ(status, 200);
+  auto client = ClientOf((*broker)->frontend());
+  ASSERT_NE(client, nullptr);
+  EXPECT_TRUE(client->Localise(kTestMapName, test::TourFeatures(2)).ok());
+}
+
+TEST(OperatorEndpointTest, ATakenPortIsAClearError) {
+  test::TestServer s = test::StartTestServer(WithMetrics(test::TestServerOptions()));
+  ASSERT_NE(s.server, nullptr);
+  ServerOptions options = test::TestServerOptions();
+  options.metrics_endpoint = s.server->metrics_endpoint();
+  auto registry = std::make_unique<MapRegistry>(MapRegistry::Options{});
+  auto second = Server::Start(options, registry.get());
+  ASSERT_FALSE(second.ok());
+  EXPECT_EQ(second.status().code(), StatusCode::kIoError);
+  EXPECT_TRUE(Contains(second.status().message(), options.metrics_endpoint))
+      << second.status().message();
+  EXPECT_EQ(Get(*s.server, "/healthz").status, 200);  // the first one is untouched
+}
+
+TEST(OperatorEndpointTest, AMalformedAddressIsRefusedWithTheSettingsName) {
+  for (const char* bad : {"9464", "localhost:", "127.0.0.1:99999", "127.0.0.1:http", ":-1"}) {
+    ServerOptions options = test::TestServerOptions();
+    options.metrics_endpoint = bad;
+    const Status status = options.Validate();
+    EXPECT_EQ(status.code(), StatusCode::kInvalidArgument) << bad;
+    EXPECT_TRUE(Contains(status.message(), "server.metrics_endpoint")) << status.message();
+  }
+}
+
+TEST(HttpEndpointTest, ServesGetOnItsPathsOnly) {
+  std::map<std::string, HttpEndpoint::Handler> handlers;
+  handlers["/ok"] = [] { return HttpResponse{200, "text/plain", "fine"}; };
+  handlers["/throws"] = []() -> HttpResponse { throw std::runtime_error("handler broke"); };
+  auto endpoint = HttpEndpoint::Start("127.0.0.1:0", handlers);
+  ASSERT_TRUE(endpoint.ok()) << endpoint.status().ToString();
+  const std::string address = (*endpoint)->address();
+  EXPECT_NE(address, "127.0.0.1:0");
+  const HttpResult ok = Http(address, "GET", "/ok");
+  EXPECT_EQ(ok.status, 200);
+  EXPECT_EQ(ok.body, "fine");
+  EXPECT_EQ(Http(address, "POST", "/ok").status, 405);
+  const HttpResult missing = Http(address, "GET", "/nothing-here");
+  EXPECT_EQ(missing.status, 404);
+  EXPECT_TRUE(Contains(missing.body, "/ok")) << missing.body;  // says what is served
+  const HttpResult broken = Http(address, "GET", "/throws");
+  EXPECT_EQ(broken.status, 500);
+  EXPECT_TRUE(Contains(broken.body, "handler broke"));
+  (*endpoint)->Stop();
+  EXPECT_EQ(Http(address, "GET", "/ok").status, 0);  // nothing listens any more
+}
+
+TEST(HealthTest, ProbesSayWhatIsMissing) {
+  ServerHealth health;
+  health.maps_loaded = 2;
+  EXPECT_EQ(Readiness(health).status, 200);
+  health.draining = true;
+  EXPECT_EQ(Readiness(health).status, 503);
+  EXPECT_EQ(Liveness(health).status, 200);
+  health.draining = false;
+  health.worker_mode = true;
+  health.broker = "tcp://broker:5556";
+  EXPECT_TRUE(Contains(Readiness(health).body, "tcp://broker:5556"));
+  health.broker_connected = true;
+  EXPECT_EQ(Readiness(health).status, 200);
+  health.io_silence = kMaxIoSilence + std::chrono::seconds(1);
+  EXPECT_EQ(Liveness(health).status, 503);
+  EXPECT_EQ(Readiness(health).status, 503);
+}
+
+}  // namespace
+}  // namespace sceneloc
