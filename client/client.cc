@@ -74,6 +74,7 @@ class ZmqClient final : public Client {
 
   StatusOr<v1::Reply> Call(v1::Request request) override {
     request.set_request_id(next_id_++);
+    request.set_protocol(kProtocolVersion);
     const std::string session = CarrySessionState(&request);
     StatusOr<v1::Reply> reply = Send(request);
     // OVERLOADED means nothing was done (a session's frame was not added): asking again is
@@ -130,9 +131,12 @@ class ZmqClient final : public Client {
         socket_.send(zmq::buffer(bytes), zmq::send_flags::none);
         auto reply = AwaitReply(request.request_id());
         // UNAVAILABLE: the server (a worker behind a broker, say) is shutting down and did
-        // nothing; a fresh socket may reach one that is not, as after a timeout.
-        const bool unavailable = reply && reply->ok() && (*reply)->status() == v1::UNAVAILABLE;
-        if (unavailable && attempt < options_.retries) {
+        // nothing; a fresh socket may reach one that is not, as after a timeout. The same
+        // for a worker that says another may do the request (Reply.retry_elsewhere).
+        const bool elsewhere =
+            reply && reply->ok() &&
+            ((*reply)->status() == v1::UNAVAILABLE || (*reply)->retry_elsewhere());
+        if (elsewhere && attempt < options_.retries) {
           std::this_thread::sleep_for(std::chrono::milliseconds(50));
           continue;
         }
@@ -215,7 +219,14 @@ class ZmqClient final : public Client {
       if (!reply.ParseFromArray(body.data(), static_cast<int>(body.size()))) {
         return StatusOr<v1::Reply>(Internal("reply from '" + endpoint_ + "' cannot be parsed"));
       }
-      if (reply.request_id() == id) return StatusOr<v1::Reply>(std::move(reply));
+      if (reply.request_id() != id) continue;
+      if (reply.protocol() > kProtocolVersion) {
+        return StatusOr<v1::Reply>(Unimplemented(
+            "'" + endpoint_ + "' replied in sceneloc protocol " + std::to_string(reply.protocol()) +
+            "; this client speaks " + std::to_string(kProtocolVersion) +
+            " (upgrade the client, or reach a server of its version)"));
+      }
+      return StatusOr<v1::Reply>(std::move(reply));
     }
   }
 

@@ -41,6 +41,10 @@ v1::StatusCode ToWireCode(StatusCode code);
 // Whether a session name (LocaliseRequest.session) is one a client may use:
 // 1..kMaxSessionName printable ASCII characters. InvalidArgument saying why otherwise.
 inline constexpr size_t kMaxSessionName = 128;
+
+// The wire protocol's version (Request.protocol, Reply.protocol): 1 for sceneloc.v1. Only
+// a change that old peers cannot read raises it; added fields do not.
+inline constexpr uint32_t kProtocolVersion = 1;
 Status CheckSessionName(const std::string& name);
 
 }  // namespace sceneloc

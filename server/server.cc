@@ -110,12 +110,20 @@ uint64_t PeekRequestId(const zmq::message_t& payload) {
 }
 
 // Sends [identity][empty?][reply] on `socket` (the ROUTER, or a worker's PUSH).
+// The reply's bytes, stamped with the protocol this server speaks.
+zmq::message_t ReplyBody(v1::Reply reply) {
+  reply.set_protocol(kProtocolVersion);
+  zmq::message_t body(reply.ByteSizeLong());
+  reply.SerializeToArray(body.data(), static_cast<int>(body.size()));
+  return body;
+}
+
+// Sends [identity][empty?][reply] on `socket` (the ROUTER, or a worker's PUSH).
 void SendReply(zmq::socket_t& socket, zmq::message_t& identity, bool delimited,
                const v1::Reply& reply) {
   socket.send(identity, zmq::send_flags::sndmore);
   if (delimited) socket.send(zmq::message_t(), zmq::send_flags::sndmore);
-  zmq::message_t body(reply.ByteSizeLong());
-  reply.SerializeToArray(body.data(), static_cast<int>(body.size()));
+  zmq::message_t body = ReplyBody(reply);
   socket.send(body, zmq::send_flags::none);
 }
 
@@ -124,6 +132,20 @@ v1::Reply ErrorReply(uint64_t request_id, v1::StatusCode code, const std::string
   reply.set_request_id(request_id);
   reply.set_status(code);
   reply.set_error(error);
+  return reply;
+}
+
+// UNIMPLEMENTED for a request of a newer protocol than this server speaks (nullopt when
+// it speaks it); in worker mode marked retry_elsewhere, as a newer worker may be behind the
+// same broker.
+std::optional<v1::Reply> ProtocolRefusal(const v1::Request& request, bool worker_mode) {
+  if (request.protocol() <= kProtocolVersion) return std::nullopt;
+  v1::Reply reply =
+      ErrorReply(request.request_id(), v1::UNIMPLEMENTED,
+                 "the request speaks sceneloc protocol " + std::to_string(request.protocol()) +
+                     "; this server speaks " + std::to_string(kProtocolVersion) +
+                     " (upgrade the server, or use a client of its version)");
+  reply.set_retry_elsewhere(worker_mode);
   return reply;
 }
 
@@ -384,6 +406,12 @@ class ZmqServer final : public Server {
         !job->request.ParseFromArray(in.payload.data(), static_cast<int>(in.payload.size()))) {
       return refuse(v1::INVALID_ARGUMENT, "request is not a valid sceneloc.v1.Request");
     }
+    if (job->parsed) {
+      if (const auto refusal = ProtocolRefusal(job->request, !options_.connect.empty())) {
+        Record(KindName(job->request), &job->request, *refusal, received);
+        return ToClient(in.identity, in.delimited, *refusal);
+      }
+    }
     if (zap_ != nullptr) {
       job->client = UserOf(in.payload);
       const Status allowed = CheckPermission(job->client, job->parsed ? &job->request : nullptr);
@@ -596,8 +624,7 @@ class ZmqServer final : public Server {
     std::vector<zmq::message_t> frames;
     frames.push_back(std::move(identity));
     if (delimited) frames.emplace_back();
-    frames.emplace_back(reply.ByteSizeLong());
-    reply.SerializeToArray(frames.back().data(), static_cast<int>(frames.back().size()));
+    frames.push_back(ReplyBody(reply));
     Deliver(frames);
   }
 
@@ -791,7 +818,7 @@ class ZmqServer final : public Server {
         const Clock::time_point start = Clock::now();
         if (IsStale(j, start, &reply)) {
           // answered OVERLOADED without the work
-        } else if (ParseOnWorker(j, &reply)) {
+        } else if (ParseOnWorker(j, !options_.connect.empty(), &reply)) {
           BusyWorker busy(&busy_workers_);  // counted off even if Handle throws
           handler_.Handle(j.request, j.received, &reply, j.client);
           if (!options_.connect.empty()) AsWorker(j.request, &reply);
@@ -819,15 +846,15 @@ class ZmqServer final : public Server {
 
   // Worker mode: a map this process does not serve may be served by another worker of the
   // same broker (during a map roll-out the workers of a group are out of step for a
-  // while). The reply is UNAVAILABLE, which sceneloc::Client retries on a fresh socket (so
-  // the broker hands the retry to the next worker), instead of NOT_FOUND, which it would
-  // return to the robot as final.
+  // while). The reply stays NOT_FOUND, marked retry_elsewhere: sceneloc::Client retries it
+  // on a fresh socket (the broker hands the retry to the next worker) and returns the
+  // NOT_FOUND only when every retry got one, so a map no worker serves is a clear
+  // NOT_FOUND within the retries, not a timeout.
   static void AsWorker(const v1::Request& request, v1::Reply* reply) {
     if (reply->status() != v1::NOT_FOUND || !request.has_localise()) return;
-    reply->set_status(v1::UNAVAILABLE);
+    reply->set_retry_elsewhere(true);
     reply->set_error(reply->error() +
-                     " on this worker (worker mode: another worker of the "
-                     "broker may serve it; retry)");
+                     " on this worker (another worker of its broker may serve it)");
   }
 
   // A request that waited for a worker longer than twice limits.max_queue_wait_ms is not
@@ -875,7 +902,7 @@ class ZmqServer final : public Server {
 
   // Parses a request the I/O thread left unparsed (a large one). False, with `reply` filled,
   // when it is not a valid localise request; true when it is (or was parsed already).
-  static bool ParseOnWorker(Job& j, v1::Reply* reply) {
+  static bool ParseOnWorker(Job& j, bool worker_mode, v1::Reply* reply) {
     if (j.parsed) return true;
     const bool ok = j.request.ParseFromArray(j.raw.data(), static_cast<int>(j.raw.size()));
     const uint64_t peeked_id = PeekRequestId(j.raw);
@@ -893,6 +920,10 @@ class ZmqServer final : public Server {
                               std::to_string(size) +
                               " bytes: only localise requests may be larger than " +
                               std::to_string(kInlineParseBytes) + " bytes");
+      return false;
+    }
+    if (auto refusal = ProtocolRefusal(j.request, worker_mode)) {
+      *reply = *std::move(refusal);
       return false;
     }
     return true;

@@ -9,9 +9,11 @@
 #include <fstream>
 #include <future>
 #include <thread>
+#include <zmq.hpp>
 
 #include "client/client.h"
 #include "client/fleet_routes.h"
+#include "proto/wire.h"
 #include "server/broker.h"
 #include "tests/server/server_test_support.h"
 
@@ -168,10 +170,74 @@ TEST(FleetTest, AWorkerWithoutTheMapIsNotAFailedRequest) {
     ASSERT_TRUE(answer.ok()) << "request " << i << ": " << answer.status().ToString();
     EXPECT_EQ(answer->locations(0).index(), i);
   }
+  // A map no worker serves: a clear NOT_FOUND once the retries are spent, not a timeout.
+  const auto start = std::chrono::steady_clock::now();
   auto missing = client->Localise("nowhere", test::TourFeatures(0));
   ASSERT_FALSE(missing.ok());
+  EXPECT_EQ(missing.status().code(), StatusCode::kNotFound);
   EXPECT_NE(missing.status().message().find("'nowhere'"), std::string::npos)
       << missing.status().message();
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(2 * test::kTimeScale));
+}
+
+// A request of a newer protocol is refused by name, and a worker of another protocol
+// version behind the broker gets the client a clear error rather than a misread reply.
+TEST(FleetTest, AnotherProtocolVersionIsAClearError) {
+  test::TestServer direct = test::StartTestServer(test::TestServerOptions());
+  ASSERT_NE(direct.server, nullptr);
+  auto raw = zmq::context_t();
+  zmq::socket_t dealer(raw, zmq::socket_type::dealer);
+  dealer.set(zmq::sockopt::rcvtimeo, 5000 * test::kTimeScale);
+  dealer.connect(direct.endpoint);
+  v1::Request newer;
+  newer.set_request_id(7);
+  newer.set_protocol(kProtocolVersion + 1);
+  newer.mutable_stats();
+  dealer.send(zmq::message_t(), zmq::send_flags::sndmore);
+  dealer.send(zmq::buffer(newer.SerializeAsString()), zmq::send_flags::none);
+  zmq::message_t empty, body;
+  ASSERT_TRUE(dealer.recv(empty));
+  ASSERT_TRUE(dealer.recv(body));
+  v1::Reply refused;
+  ASSERT_TRUE(refused.ParseFromArray(body.data(), static_cast<int>(body.size())));
+  EXPECT_EQ(refused.status(), v1::UNIMPLEMENTED);
+  EXPECT_EQ(refused.protocol(), kProtocolVersion);
+  EXPECT_NE(refused.error().find("protocol 2"), std::string::npos) << refused.error();
+
+  // A "worker" of protocol 2 (a raw DEALER on the backend) answering every request.
+  auto broker = StartBroker();
+  ASSERT_NE(broker, nullptr);
+  zmq::socket_t worker(raw, zmq::socket_type::dealer);
+  worker.connect(broker->backend());
+  std::atomic<bool> stop{false};
+  std::thread answer([&] {
+    worker.set(zmq::sockopt::rcvtimeo, 50);
+    while (!stop) {
+      std::vector<zmq::message_t> frames;
+      zmq::message_t frame;
+      if (!worker.recv(frame)) continue;
+      frames.push_back(std::move(frame));
+      while (frames.back().more() && worker.recv(frame)) frames.push_back(std::move(frame));
+      v1::Request request;
+      request.ParseFromArray(frames.back().data(), static_cast<int>(frames.back().size()));
+      v1::Reply reply;
+      reply.set_request_id(request.request_id());
+      reply.set_protocol(2);
+      frames.back() = zmq::message_t(reply.SerializeAsString());
+      for (size_t i = 0; i < frames.size(); ++i) {
+        worker.send(frames[i],
+                    i + 1 < frames.size() ? zmq::send_flags::sndmore : zmq::send_flags::none);
+      }
+    }
+  });
+  auto client = ClientOf(*broker);
+  auto stats = client->Stats();
+  stop = true;
+  answer.join();
+  ASSERT_FALSE(stats.ok());
+  EXPECT_EQ(stats.status().code(), StatusCode::kUnimplemented);
+  EXPECT_NE(stats.status().message().find("protocol 2; this client speaks 1"), std::string::npos)
+      << stats.status().message();
 }
 
 // Two groups, each a broker with a worker serving its own map, and a routes file: one
