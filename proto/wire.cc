@@ -4,8 +4,6 @@
 #include <cmath>
 #include <string>
 
-#include "common/matching/localiser.h"
-
 namespace sceneloc {
 namespace {
 

@@ -1,9 +1,12 @@
 // The features of one image: what the extractor produces, training consumes, the map's
-// landmarks are fused from, and a thin client sends over the wire.
+// landmarks are fused from, and a thin client sends over the wire. Its own target
+// (sceneloc_feature_set) needs Eigen only, so a robot's client links no OpenCV.
 #pragma once
 
 #include <Eigen/Core>
 #include <vector>
+
+#include "common/util/status.h"
 
 namespace sceneloc {
 
@@ -52,5 +55,9 @@ struct FeatureSet {
 
   int size() const { return static_cast<int>(keypoints.size()); }
 };
+
+// Checks a feature set from an untrusted source: consistent counts, finite values, a
+// holistic descriptor that matches its grid.
+Status ValidateFeatureSet(const FeatureSet& features);
 
 }  // namespace sceneloc

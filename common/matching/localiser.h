@@ -152,10 +152,6 @@ struct LocaliseResult {
   std::vector<float> location_scores;
 };
 
-// Checks a feature set from an untrusted source: consistent counts, finite values,
-// coordinates inside the image.
-Status ValidateFeatureSet(const FeatureSet& features);
-
 // Localises one frame. `pool` may be null (runs on the caller). Thread-safe: any number
 // of calls may share one map and one pool. REQUIRES: map is Validate()d and Finalize()d.
 StatusOr<LocaliseResult> Localise(const FeatureSet& features, const Map& map,

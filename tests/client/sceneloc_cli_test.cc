@@ -20,9 +20,9 @@ struct RunResult {
   std::string output;  // stdout and stderr
 };
 
-RunResult Sceneloc(const std::string& args) {
+RunResult RunBinary(const std::string& binary, const std::string& args) {
   RunResult run;
-  FILE* pipe = popen((std::string(SCENELOC_BIN) + " " + args + " 2>&1").c_str(), "r");
+  FILE* pipe = popen((binary + " " + args + " 2>&1").c_str(), "r");
   if (pipe == nullptr) return run;
   char buffer[4096];
   size_t n = 0;
@@ -31,6 +31,8 @@ RunResult Sceneloc(const std::string& args) {
   run.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return run;
 }
+
+RunResult Sceneloc(const std::string& args) { return RunBinary(SCENELOC_BIN, args); }
 
 class ScenelocCliTest : public ::testing::Test {
  protected:
@@ -97,6 +99,13 @@ TEST_F(ScenelocCliTest, ExtractThenLocaliseFeatures) {
   EXPECT_EQ(run.status, 0) << run.output;
   EXPECT_NE(run.output.find("f32.pb\t4\t"), std::string::npos) << run.output;
   EXPECT_NE(run.output.find("u8.pb\t4\t"), std::string::npos) << run.output;
+  // The thin client (no OpenCV linked) sends the same file.
+  run = RunBinary(SCENELOC_THIN_CLIENT_BIN, server_.endpoint + " synthetic " + f32);
+  EXPECT_EQ(run.status, 0) << run.output;
+  EXPECT_NE(run.output.find("location 4 (Image004.jpg)"), std::string::npos) << run.output;
+  run = RunBinary(SCENELOC_THIN_CLIENT_BIN, server_.endpoint + " synthetic " + Image(4));  // a JPEG
+  EXPECT_EQ(run.status, 1) << run.output;
+  EXPECT_NE(run.output.find("cannot read a feature set"), std::string::npos) << run.output;
 }
 
 // maps lists the served map with its generation.
