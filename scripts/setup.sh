@@ -16,7 +16,8 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev
   python3
   # The Python client (client/python) and its tests, on Debian's interpreter.
-  python3-zmq python3-protobuf python3-pytest python3-venv python3-pip python3-setuptools
+  python3-zmq python3-protobuf python3-numpy python3-pytest python3-venv python3-pip
+  python3-setuptools python3-wheel
 )
 for arg in "$@"; do
   case $arg in
