@@ -75,6 +75,7 @@ nlohmann::json ToJson(const BenchArgs& args, const LoadResult& r) {
           {"latency_ms", Percentiles(r.latency_ms)},
           {"server_ms", Percentiles(r.server_ms)},
           {"errors", r.errors},
+          {"retries", r.retries},
           {"sessions", args.sessions},
           {"session_localised", r.session_localised},
           {"map_versions", versions},
@@ -100,6 +101,7 @@ void PrintSummary(const BenchArgs& args, const LoadResult& r) {
   if (r.errors.empty()) std::printf(" none");
   for (const auto& [kind, n] : r.errors)
     std::printf(" %s %lld", kind.c_str(), static_cast<long long>(n));
+  if (r.retries > 0) std::printf("\nretried     %lld attempts", static_cast<long long>(r.retries));
   std::printf("\nmap versions");
   for (const auto& [generation, checksum] : r.map_versions) {
     std::printf(" %s@%llu (%08x)", args.map.c_str(), static_cast<unsigned long long>(generation),
@@ -117,6 +119,7 @@ int RunBench(const BenchArgs& args) {
   options.clients = args.clients;
   options.duration_s = args.duration_s;
   options.timeout_ms = args.timeout_ms;
+  options.retries = args.retries;
   options.top_k = args.top_k;
   options.sessions = args.sessions;
   options.key_file = args.key_file;

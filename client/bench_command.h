@@ -22,6 +22,7 @@ struct BenchArgs {
   int clients = 1;
   double duration_s = 10;
   int timeout_ms = 10000;
+  int retries = 0;  // LoadOptions::retries
   int top_k = 0;
   bool features = false;
   bool sessions = false;  // one session per client thread (LoadOptions::sessions)

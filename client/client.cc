@@ -97,6 +97,7 @@ class ZmqClient final : public Client {
   }
 
   int64_t overload_retries() const override { return overload_retries_; }
+  int64_t retries() const override { return retries_; }
 
   // A localise request of a session carries the state of that session's last reply (unless
   // it sets one itself or resets). Returns the session's key here ("" for none).
@@ -125,7 +126,10 @@ class ZmqClient final : public Client {
   StatusOr<v1::Reply> Send(const v1::Request& request) {
     const std::string bytes = request.SerializeAsString();
     for (int attempt = 0; attempt <= options_.retries; ++attempt) {
-      if (attempt > 0) SCENELOC_RETURN_IF_ERROR(Open());  // a fresh socket per retry
+      if (attempt > 0) {
+        SCENELOC_RETURN_IF_ERROR(Open());  // a fresh socket per retry
+        ++retries_;
+      }
       try {
         socket_.send(zmq::message_t(), zmq::send_flags::sndmore);
         socket_.send(zmq::buffer(bytes), zmq::send_flags::none);
@@ -247,6 +251,7 @@ class ZmqClient final : public Client {
   KeyPair server_key_;  // its public half
   uint64_t next_id_ = 1;
   int64_t overload_retries_ = 0;
+  int64_t retries_ = 0;
   std::mt19937 random_{std::random_device()()};
   std::uniform_real_distribution<double> jitter_{1.0, 1.5};
 };
@@ -300,11 +305,8 @@ class RoutedClient final : public Client {
     return client->Stats();
   }
 
-  int64_t overload_retries() const override {
-    int64_t total = 0;
-    for (const auto& [endpoint, client] : clients_) total += client->overload_retries();
-    return total;
-  }
+  int64_t overload_retries() const override { return Sum(&Client::overload_retries); }
+  int64_t retries() const override { return Sum(&Client::retries); }
 
  private:
   StatusOr<Client*> For(const std::string& map) {
@@ -312,6 +314,12 @@ class RoutedClient final : public Client {
     return Of(endpoint);
   }
   StatusOr<Client*> First() { return Of(routes_.Endpoints().front()); }
+  // A counter summed over the brokers' clients.
+  int64_t Sum(int64_t (Client::*counter)() const) const {
+    int64_t total = 0;
+    for (const auto& [endpoint, client] : clients_) total += (client.get()->*counter)();
+    return total;
+  }
   // The client of `endpoint`, made on first use; one that cannot be made is not kept.
   StatusOr<Client*> Of(const std::string& endpoint) {
     const auto it = clients_.find(endpoint);

@@ -97,6 +97,9 @@ class Client {
 
   // OVERLOADED replies this client waited out and asked again after, since it was made.
   virtual int64_t overload_retries() const = 0;
+  // Attempts this client sent again after a timeout, an UNAVAILABLE or a retry_elsewhere
+  // reply (each on a fresh socket), since it was made.
+  virtual int64_t retries() const = 0;
 };
 
 // The engine status for a non-OK wire reply: "<STATUS>: <error>".

@@ -77,12 +77,14 @@ void RunClient(Client* client, const std::vector<v1::Request>& requests, size_t 
     }
   }
   tally->finished = Clock::now();
+  tally->result.retries = client->retries();
 }
 
 void Merge(const LoadResult& from, LoadResult* into) {
   into->requests += from.requests;
   into->ok += from.ok;
   into->session_localised += from.session_localised;
+  into->retries += from.retries;
   into->latency_ms.insert(into->latency_ms.end(), from.latency_ms.begin(), from.latency_ms.end());
   into->server_ms.insert(into->server_ms.end(), from.server_ms.begin(), from.server_ms.end());
   for (const auto& [kind, n] : from.errors) into->errors[kind] += n;
@@ -101,6 +103,7 @@ Status LoadOptions::Validate() const {
     return InvalidArgument("duration must be > 0 seconds");
   }
   if (timeout_ms < 1) return InvalidArgument("timeout_ms must be >= 1");
+  if (retries < 0) return InvalidArgument("retries must be >= 0");
   if (top_k < 0) return InvalidArgument("top_k must be >= 0");
   if (sessions) SCENELOC_RETURN_IF_ERROR(CheckSessionName(session_prefix + "-0"));
   return Status::Ok();
@@ -130,7 +133,7 @@ StatusOr<LoadResult> RunLoad(const LoadOptions& options, const std::vector<LoadQ
   }
   ClientOptions client_options;
   client_options.timeout_ms = options.timeout_ms;
-  client_options.retries = 0;
+  client_options.retries = options.retries;
   client_options.overload_wait_ms = 0;  // refusals are counted; Run() backs off itself
   client_options.key_file = options.key_file;
   client_options.server_key_file = options.server_key_file;

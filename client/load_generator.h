@@ -34,6 +34,10 @@ struct LoadOptions {
   // counted as the error NO_REPLY, so retries cannot hide failures. After an OVERLOADED
   // reply a client thread backs off (10 ms, doubling to 320 ms) before its next request.
   int timeout_ms = 10000;
+  // Attempts after a timeout, UNAVAILABLE or retry_elsewhere reply, each on a fresh socket
+  // (ClientOptions::retries). 0 (the default): none, so retries cannot hide failures; a
+  // fleet benchmark that kills a worker sets it to count what the client's retry saves.
+  int retries = 0;
   // Ranked locations asked for (0 = the server's default).
   int top_k = 0;
   // Each client thread is one robot's session (named "<session_prefix>-<thread>", reset on
@@ -71,6 +75,8 @@ struct LoadResult {
   std::map<std::string, int64_t> errors;
   // With sessions: successful replies whose session answer was LOCALISED.
   int64_t session_localised = 0;
+  // Attempts the clients sent again (LoadOptions::retries; Client::retries()).
+  int64_t retries = 0;
   // Map generations (and the checksum of each) seen in successful replies.
   std::map<uint64_t, uint32_t> map_versions;
 

@@ -276,7 +276,11 @@ int main(int argc, char** argv) {
                   "each client thread is one robot's session through the folder in order");
   bench->add_option("--json", bench_args.json_out, "write the results as JSON to this file");
   bench->add_option("--top-k", bench_args.top_k, "ranked locations wanted (0 = server default)");
-  bench->add_option("--timeout-ms", bench_args.timeout_ms, "per request; no retries")
+  bench->add_option("--timeout-ms", bench_args.timeout_ms, "per attempt")->capture_default_str();
+  bench
+      ->add_option("--retries", bench_args.retries,
+                   "attempts after a timeout or UNAVAILABLE, each on a fresh socket (0: none, "
+                   "so failures are not hidden)")
       ->capture_default_str();
   bench->add_option("--key", bench_args.key_file, "CURVE: this client's key pair");
   bench->add_option("--server-key", bench_args.server_key_file, "CURVE: the server's public key");

@@ -28,6 +28,7 @@ TEST(ClientTest, TimesOutAndRetriesOnAFreshSocket) {
   auto reply = (*client)->Stats();
   EXPECT_EQ(reply.status().code(), StatusCode::kIoError);
   EXPECT_NE(reply.status().message().find("2 attempts"), std::string::npos);
+  EXPECT_EQ((*client)->retries(), 1);
 
   std::vector<std::string> identities;
   std::vector<uint64_t> ids;
@@ -151,6 +152,7 @@ TEST(ClientTest, RetriesUnavailableOnAFreshSocket) {
   ASSERT_TRUE(reply.ok()) << reply.status().ToString();
   EXPECT_EQ(server.get().size(), 2u);
   EXPECT_EQ((*client)->overload_retries(), 0);
+  EXPECT_EQ((*client)->retries(), 1);
 }
 
 // Invalid options are refused before anything connects.
