@@ -44,7 +44,9 @@ StatusOr<std::vector<LoadQuery>> PrepareQueries(const BenchArgs& args) {
     SCENELOC_ASSIGN_OR_RETURN(const cv::Mat image,
                               DecodeImage(bytes, extractor->options().max_image_side));
     SCENELOC_ASSIGN_OR_RETURN(const FeatureSet features, extractor->Extract(image));
-    queries.push_back(FeatureQuery(FileName(path), features));
+    queries.push_back(
+        FeatureQuery(FileName(path), features,
+                     args.uint8 ? DescriptorEncoding::kUint8 : DescriptorEncoding::kFloat32));
   }
   return queries;
 }
@@ -71,6 +73,7 @@ nlohmann::json ToJson(const BenchArgs& args, const LoadResult& r) {
           {"clients", args.clients},
           {"duration_s", args.duration_s},
           {"mode", args.features ? "features" : "jpeg"},
+          {"descriptors", args.features ? (args.uint8 ? "uint8" : "float32") : ""},
           {"map", args.map},
           {"latency_ms", Percentiles(r.latency_ms)},
           {"server_ms", Percentiles(r.server_ms)},

@@ -115,10 +115,9 @@ LoadQuery JpegQuery(std::string name, std::string jpeg) {
   return query;
 }
 
-LoadQuery FeatureQuery(std::string name, const FeatureSet& features) {
+LoadQuery FeatureQuery(std::string name, const FeatureSet& features, DescriptorEncoding encoding) {
   LoadQuery query{std::move(name), {}};
-  EncodeFeatureSet(features, DescriptorEncoding::kFloat32,
-                   query.request.mutable_localise()->mutable_features());
+  EncodeFeatureSet(features, encoding, query.request.mutable_localise()->mutable_features());
   return query;
 }
 

@@ -17,6 +17,7 @@
 #include "common/features/feature_set.h"
 #include "common/util/status.h"
 #include "proto/sceneloc.pb.h"
+#include "proto/wire.h"
 
 namespace sceneloc {
 
@@ -59,8 +60,10 @@ struct LoadQuery {
 };
 // A query carrying the whole JPEG file.
 LoadQuery JpegQuery(std::string name, std::string jpeg);
-// A query carrying a feature set extracted on the client (float32 descriptors).
-LoadQuery FeatureQuery(std::string name, const FeatureSet& features);
+// A query carrying a feature set extracted on the client, its descriptors as `encoding`
+// (float32: 1 KB per keypoint for both descriptors; uint8: a quarter of it).
+LoadQuery FeatureQuery(std::string name, const FeatureSet& features,
+                       DescriptorEncoding encoding = DescriptorEncoding::kFloat32);
 
 struct LoadResult {
   int64_t requests = 0;  // completed requests, answered or not

@@ -266,6 +266,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   bench->add_flag("--features", bench_args.features,
                   "extract feature sets once on the client and send those instead of JPEGs");
+  bench->add_flag("--uint8", bench_args.uint8,
+                  "with --features: send the descriptors as uint8 (a quarter of float32's bytes)");
   bench->add_option("--map-file", bench_args.map_file,
                     "with --features: take the extractor settings from this map file");
   bench->add_option("--config", bench_args.config,

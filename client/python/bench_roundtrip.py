@@ -6,8 +6,8 @@ Sends the same feature-set file (`sceneloc extract IMAGE --map-file MAP --out FI
 server N times, one request after another on one connection, after some warm-up requests,
 and prints the median (p50) and p99 round trip in milliseconds (nearest rank, as `sceneloc
 bench` computes them) and the server's own time. As in `sceneloc bench`, the feature set is
-encoded into its wire message once, before the clock; a timed call is
-client.localise_features: the message copied into a request, serialised, sent, answered,
+encoded into its wire bytes once, before the clock; a timed call is
+client.localise_features: the request serialised with those bytes appended, sent, answered,
 parsed and read into a sceneloc.LocaliseReply. --encode-each also times what a robot
 extracting its own features pays: the FeatureSet encoded from its numpy arrays every call.
 
@@ -56,8 +56,8 @@ def main(argv: Sequence[str]) -> int:
     except (OSError, ValueError) as e:
         print(f"bench_roundtrip: {e}", file=sys.stderr)
         return 2
-    features: Union[sceneloc.FeatureSet, sceneloc.pb.FeatureSet] = (
-        feature_set if args.encode_each else feature_set.to_proto()  # once, as sceneloc bench
+    features: Union[sceneloc.FeatureSet, bytes] = (
+        feature_set if args.encode_each else feature_set.to_bytes()  # once, as sceneloc bench
     )
     round_trip_ms: list[float] = []
     server_ms: list[float] = []

@@ -105,6 +105,8 @@ def test_extract_file_round_trips(feature_files: dict[str, Path]) -> None:
         features = sceneloc.FeatureSet.from_file(path)
         assert features.holistic is not None and features.holistic.values.size > 0
         assert features.to_proto() == sceneloc.pb.FeatureSet.FromString(path.read_bytes())
+        # to_bytes, which splices the descriptors' bytes in, writes what the C++ tool wrote.
+        assert features.to_bytes() == path.read_bytes()
 
 
 # as_uint8 quantises as the C++ client does: the same bytes as `sceneloc extract --uint8`.

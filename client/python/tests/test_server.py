@@ -86,6 +86,13 @@ def test_localise_features_from_arrays_and_from_a_raw_message(
     assert client.localise_features(map_name, made).best.index == QUERY_LOCATION
     raw = sceneloc.pb.FeatureSet.FromString(feature_files["float32"].read_bytes())
     assert client.localise_features(map_name, raw).best.index == QUERY_LOCATION
+    # Already serialised (a file's bytes), with the other request fields beside them.
+    reply = client.localise_features(
+        map_name, feature_files["uint8"].read_bytes(), top_k=2, session="bytes-robot"
+    )
+    assert reply.best.index == QUERY_LOCATION
+    assert len(reply.locations) == 2
+    assert reply.session is not None and reply.session.frames == 1
 
 
 # A frame of no place on the route (random features) is answered, not an error: status OK,

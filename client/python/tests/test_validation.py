@@ -58,7 +58,7 @@ def test_bad_jpeg_argument(client: sceneloc.Client, jpeg: Any, error: type, matc
 
 def test_bad_features_argument(client: sceneloc.Client) -> None:
     with pytest.raises(TypeError, match="features must be a sceneloc.FeatureSet"):
-        client.localise_features("lab", b"not features")  # type: ignore[arg-type]
+        client.localise_features("lab", "not features")  # type: ignore[arg-type]
 
 
 def test_bad_reload_argument(client: sceneloc.Client) -> None:

@@ -34,7 +34,7 @@ from .keys import KeyPair, read_key_file
 from .options import ClientOptions, PathLike
 from .replies import LocaliseReply, MapInfo, StatsReply
 from .requests import check_map, localise_request
-from .wire import PROTOCOL_VERSION, pb
+from .wire import PROTOCOL_VERSION, length_delimited, pb
 
 # How long to wait before resending after an UNAVAILABLE or retry_elsewhere reply, seconds
 # (as the C++ client).
@@ -138,31 +138,38 @@ class Client:
     def localise_features(
         self,
         map: str,
-        features: Union[FeatureSet, pb.FeatureSet],
+        features: Union[FeatureSet, pb.FeatureSet, bytes],
         top_k: int = 0,
         min_confidence: Optional[float] = None,
         session: str = "",
         reset_session: bool = False,
         session_state: bytes = b"",
     ) -> LocaliseReply:
-        """Localises a frame from its features (the thin-client path): a FeatureSet, or a
-        sceneloc.pb.FeatureSet sent as it is (e.g. a `sceneloc extract` file parsed with
-        pb.FeatureSet.FromString, left for the server to check). They must come from the
-        map's extractor settings. The other arguments and the errors are localise_jpeg's."""
+        """Localises a frame from its features (the thin-client path): a FeatureSet, a
+        sceneloc.pb.FeatureSet, or one already serialised (bytes: e.g. the content of a
+        `sceneloc extract` file, or FeatureSet.to_bytes() kept for several calls); the last
+        two are sent as they are, for the server to check. They must come from the map's
+        extractor settings. The other arguments and the errors are localise_jpeg's.
+
+        The features are not copied into the request message: their serialised bytes are
+        appended to the request's (LocaliseRequest.features, field 4 of field 2), which is
+        what makes a large feature set cost about what it costs the C++ client."""
         if isinstance(features, FeatureSet):
-            wire = features.to_proto()
+            data = features.to_bytes()
         elif isinstance(features, pb.FeatureSet):
-            wire = features
+            data = features.SerializeToString()
+        elif isinstance(features, (bytes, bytearray, memoryview)):
+            data = bytes(features)
         else:
             raise TypeError(
-                f"features must be a sceneloc.FeatureSet or sceneloc.pb.FeatureSet, not "
-                f"{type(features).__name__}"
+                f"features must be a sceneloc.FeatureSet, a sceneloc.pb.FeatureSet or its "
+                f"serialised bytes, not {type(features).__name__}"
             )
         request = localise_request(
             map, top_k, min_confidence, session, reset_session, session_state
         )
-        request.localise.features.CopyFrom(wire)
-        return LocaliseReply.from_proto(self._typed(request).localise)
+        appended = length_delimited(2, length_delimited(4, data))
+        return LocaliseReply.from_proto(self._typed(request, appended).localise)
 
     def list_maps(self) -> list[MapInfo]:
         """Every map the server serves, by name."""
@@ -192,18 +199,19 @@ class Client:
 
     # ------------------------------------------------------------------ raw calls
 
-    def call(self, request: pb.Request) -> pb.Reply:
+    def call(self, request: pb.Request, appended: bytes = b"") -> pb.Reply:
         """Sends `request` and returns the server's reply, whatever its status, after the
         retries above. `request` is changed in place: it gets a fresh request_id, this
         client's protocol version and, for a localise request of a session that sets no
         state and does not reset, the state of the session's last reply. Raises Timeout when
         no reply came after every attempt, Internal for a reply that cannot be parsed,
-        Unimplemented for a reply of a newer protocol."""
+        Unimplemented for a reply of a newer protocol. `appended`: serialised fields sent
+        after the request's own bytes (they merge into it; see localise_features)."""
         self._live_socket()  # not closed
         request.request_id = self._take_id()
         request.protocol = PROTOCOL_VERSION
         key = self._carry_session_state(request)
-        reply = self._send(request)
+        reply = self._send(request, appended)
         # OVERLOADED means nothing was done (a session's frame was not added): asking again
         # is safe. Wait what the server suggests, jittered, within overload_wait_ms in all.
         give_up = time.monotonic() + self.options.overload_wait_ms / 1000
@@ -215,7 +223,7 @@ class Client:
             time.sleep(wait_s)
             self.overload_retries += 1
             request.request_id = self._take_id()
-            reply = self._send(request)
+            reply = self._send(request, appended)
         if key is not None:
             self._keep_session_state(key, reply)
         return reply
@@ -266,14 +274,17 @@ class Client:
         self._next_id = (self._next_id + 1) & _UINT64_MASK
         return request_id
 
-    def _send(self, request: pb.Request) -> pb.Reply:
-        """Sends `request` until a reply comes, each retry on a fresh socket."""
-        data = request.SerializeToString()
+    def _send(self, request: pb.Request, appended: bytes) -> pb.Reply:
+        """Sends `request` (and the fields `appended`) until a reply comes, each retry on a
+        fresh socket."""
+        data = request.SerializeToString() + appended
         for attempt in range(self.options.retries + 1):
             if attempt > 0:
                 self.retries += 1
             socket = self._open() if attempt > 0 else self._live_socket()
-            socket.send_multipart([b"", data])
+            # copy=False: a large request goes out without one more copy (pyzmq still copies
+            # those under its copy_threshold, 64 KiB).
+            socket.send_multipart([b"", data], copy=False)
             reply = self._await_reply(socket, request.request_id)
             # UNAVAILABLE: the server (a worker behind a broker, say) is shutting down and
             # did nothing; a fresh socket may reach one that is not, as after a timeout. The
@@ -319,9 +330,9 @@ class Client:
                 )
             return reply
 
-    def _typed(self, request: pb.Request) -> pb.Reply:
+    def _typed(self, request: pb.Request, appended: bytes = b"") -> pb.Reply:
         """call(), with an error reply raised as its SceneLocError."""
-        reply = self.call(request)
+        reply = self.call(request, appended)
         if reply.status != StatusCode.OK:
             raise reply_error(reply)
         return reply

@@ -18,7 +18,7 @@ from typing import Optional, Union
 import numpy as np
 from google.protobuf.message import DecodeError
 
-from .wire import pb
+from .wire import length_delimited, pb
 
 DESCRIPTOR_SIZE = 128
 # Largest distance of a float32 descriptor's norm from 1 the server accepts (proto/wire.cc).
@@ -77,11 +77,12 @@ def _quantise(descriptors: np.ndarray) -> np.ndarray:
     return np.clip(rounded, 0, 255).astype(np.uint8)
 
 
-def _encode_matrix(descriptors: np.ndarray, out: pb.DescriptorMatrix) -> None:
+def _matrix_bytes(descriptors: np.ndarray) -> bytes:
+    """A serialised pb.DescriptorMatrix: its uint8 field (2), or its float32 field (1) as one
+    packed run of little-endian floats — the array's own bytes."""
     if descriptors.dtype == np.uint8:
-        out.uint8 = descriptors.tobytes()
-    else:
-        out.float32.extend(descriptors.ravel())
+        return length_delimited(2, descriptors.tobytes())
+    return length_delimited(1, descriptors.astype("<f4", copy=False).tobytes())
 
 
 def _decode_matrix(wire: pb.DescriptorMatrix, n: int, which: str) -> np.ndarray:
@@ -191,24 +192,33 @@ class FeatureSet:
             self, local=_quantise(self.local), context=_quantise(self.context)
         )
 
-    def to_proto(self) -> pb.FeatureSet:
-        """The wire message (descriptors travel as they are held: float32 or uint8)."""
-        out = pb.FeatureSet(image_width=self.image_width, image_height=self.image_height)
-        out.keypoints.extend(
+    def to_bytes(self) -> bytes:
+        """The serialised wire message, byte for byte what to_proto().SerializeToString()
+        gives (fields in number order), made with the descriptors' bytes as they are rather
+        than value by value (descriptors travel as they are held: float32 or uint8)."""
+        head = pb.FeatureSet(image_width=self.image_width, image_height=self.image_height)
+        head.keypoints.extend(
             pb.Keypoint(x=x, y=y, size=s, angle=a, response=r, octave=o)
             for x, y, s, a, r, o in zip(
                 self.x.tolist(), self.y.tolist(), self.size.tolist(), self.angle.tolist(),
                 self.response.tolist(), self.octave.tolist(),
             )
         )
+        data = head.SerializeToString()
         if len(self):
-            _encode_matrix(self.local, out.local)
-            _encode_matrix(self.context, out.context)
+            data += length_delimited(4, _matrix_bytes(self.local))
+            data += length_delimited(5, _matrix_bytes(self.context))
         if self.holistic is not None:
             h = self.holistic
-            out.holistic.cols, out.holistic.rows, out.holistic.bins = h.cols, h.rows, h.bins
-            out.holistic.values.extend(h.values)
-        return out
+            holistic = pb.Holistic(cols=h.cols, rows=h.rows, bins=h.bins).SerializeToString()
+            if h.values.size:
+                holistic += length_delimited(4, h.values.astype("<f4", copy=False).tobytes())
+            data += length_delimited(6, holistic)
+        return data
+
+    def to_proto(self) -> pb.FeatureSet:
+        """The wire message (descriptors travel as they are held: float32 or uint8)."""
+        return pb.FeatureSet.FromString(self.to_bytes())
 
     @classmethod
     def from_proto(cls, wire: pb.FeatureSet) -> FeatureSet:

@@ -20,4 +20,23 @@ except ImportError as e:
 # in proto/wire.h). Only a change old peers cannot read raises it; added fields do not.
 PROTOCOL_VERSION = 1
 
-__all__ = ["PROTOCOL_VERSION", "pb"]
+
+def _varint(value: int) -> bytes:
+    out = bytearray()
+    while value > 0x7F:
+        out.append(value & 0x7F | 0x80)
+        value >>= 7
+    out.append(value)
+    return bytes(out)
+
+
+def length_delimited(field: int, payload: bytes) -> bytes:
+    """One length-delimited field (an embedded message, bytes, or a packed repeated scalar)
+    in the protobuf wire format: its key, its length, its bytes. Serialised messages
+    concatenate: appending a field of an embedded message that is already set merges into
+    it, so large parts (descriptors, a whole feature set) can be added to a message's bytes
+    as they are, without being copied value by value into protobuf objects."""
+    return _varint(field << 3 | 2) + _varint(len(payload)) + payload
+
+
+__all__ = ["PROTOCOL_VERSION", "length_delimited", "pb"]
