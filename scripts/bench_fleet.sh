@@ -38,16 +38,14 @@ mkdir -p "$out/one"
 cp "$frame" "$out/one/"
 "$client" extract "$frame" --out "$out/one.pb" --map-file "$map_file" >/dev/null
 
-# The Python client, installed offline into a venv of Debian's python (client/python).
+# The Python client of this checkout, installed offline into a venv of Debian's python.
 py="$out/pyvenv/bin/python"
-if [[ ! -x $py ]]; then
-  rm -rf "$out/pystage" && mkdir -p "$out/pystage/client" "$out/pystage/proto"
-  cp -R "$root/client/python" "$out/pystage/client/"
-  cp "$root/proto/sceneloc.proto" "$out/pystage/proto/"
-  /usr/bin/python3 -m venv --system-site-packages "$out/pyvenv"
-  "$py" -m pip install --quiet --no-index --no-build-isolation --no-deps \
-    "$out/pystage/client/python"
-fi
+[[ -x $py ]] || /usr/bin/python3 -m venv --system-site-packages "$out/pyvenv"
+rm -rf "$out/pystage" && mkdir -p "$out/pystage/client" "$out/pystage/proto"
+cp -R "$root/client/python" "$out/pystage/client/"
+cp "$root/proto/sceneloc.proto" "$out/pystage/proto/"
+"$py" -m pip install --quiet --no-index --no-build-isolation --no-deps --force-reinstall \
+  "$out/pystage/client/python"
 
 # --- processes: a broker and workers, besides start_server/stop_server for direct runs
 pids=()
