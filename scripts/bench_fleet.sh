@@ -6,15 +6,16 @@
 #   broker1    sceneloc-broker with one worker --threads 1 behind it
 #   broker2    the broker with two workers --threads 1
 #   direct2    one sceneloc-server --threads 2 (the same two cores in one process)
-# Runs per setup: 8 clients of feature sets and of JPEGs (throughput), 1 client of feature
-# sets over the day_right folder and over one frame (latency), and against `direct` the
-# Python client's round trip on that one frame (client/python/bench_roundtrip.py). Then one
+# Runs per setup: 8 clients of feature sets and of JPEGs (throughput), each setup alone.
+# Then `direct` and `broker1` side by side for one client's latency (feature sets over the
+# day_right folder, over one frame, the same as uint8), runs alternating, and against
+# `direct` the Python client's round trip on that one frame (bench_roundtrip.py). Then one
 # run with a worker killed (SIGKILL) mid-run: 8 clients with --retries 3 --timeout-ms 1000.
 # Every server runs with --max-queue-wait-ms 10000: this measures capacity, so 8 clients
 # queue on one thread rather than being refused (limits.max_queue_wait_ms is 500 by
 # default). Throughput counts answered (OK) requests. Prints the ratios the issue asks for;
 # JSON of every run is left in OUT_DIR.
-# About ROUNDS x (12 x SECONDS + 10) + 2 x SECONDS seconds.
+# About ROUNDS x (14 x SECONDS + 20) + 2 x SECONDS + 20 seconds.
 # Usage: scripts/bench_fleet.sh [OUT_DIR] [DATA_DIR] [SECONDS_PER_RUN] [ROUNDS]
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -93,33 +94,51 @@ bench() {
     --json "$out/fleet-$name-$run-$round.json" >/dev/null || true  # errors: in the table
 }
 
-runs_for() {
-  local name=$1
-  bench "$name" f8 --clients 8 --features --map-file "$map_file" "$data/day_right"
-  bench "$name" j8 --clients 8 "$data/day_right"
-  [[ $name == broker2 || $name == direct2 ]] && return
-  bench "$name" f1 --clients 1 --features --map-file "$map_file" "$data/day_right"
-  bench "$name" one --clients 1 --features --map-file "$map_file" "$out/one"
-  bench "$name" one8 --clients 1 --features --uint8 --map-file "$map_file" "$out/one"
+throughput_runs() {
+  bench "$1" f8 --clients 8 --features --map-file "$map_file" "$data/day_right"
+  bench "$1" j8 --clients 8 "$data/day_right"
+}
+
+# latency_run RUN: one client's RUN against the direct server and through the broker, one
+# after the other.
+latency_run() {
+  local run=$1 args=(--clients 1 --features --map-file "$map_file")
+  case $run in
+    f1) args+=("$data/day_right") ;;
+    one) args+=("$out/one") ;;
+    one8) args+=(--uint8 "$out/one") ;;
+  esac
+  endpoint=$direct_endpoint bench direct "$run" "${args[@]}"
+  endpoint=$broker_endpoint bench broker1 "$run" "${args[@]}"
 }
 
 for ((round = 1; round <= rounds; round++)); do
+  # Throughput: each setup alone on the cores.
   start_server direct --threads 1 --max-queue-wait-ms 10000
-  runs_for direct
-  "$py" "$root/client/python/bench_roundtrip.py" --server "$endpoint" --map gp \
-    --features "$out/one.pb" -n 300 >"$out/fleet-python-$round.txt"
+  throughput_runs direct
   stop_server
-
   start_broker
   start_worker a
-  runs_for broker1
+  throughput_runs broker1
   start_worker b
-  runs_for broker2
+  throughput_runs broker2
   cleanup
-
   start_server direct2 --threads 2 --max-queue-wait-ms 10000
-  runs_for direct2
+  throughput_runs direct2
   stop_server
+
+  # One client's latency: the direct server and a broker with one worker run side by side
+  # and the runs alternate, so both paths see the same machine (run apart, the same path's
+  # figure moved by 0.5 ms with what else was running).
+  start_server direct --threads 1 --max-queue-wait-ms 10000
+  direct_endpoint=$endpoint
+  start_broker
+  start_worker a
+  broker_endpoint=$endpoint
+  for run in f1 one one8; do latency_run "$run"; done
+  "$py" "$root/client/python/bench_roundtrip.py" --server "$direct_endpoint" --map gp \
+    --features "$out/one.pb" -n 300 >"$out/fleet-python-$round.txt"
+  cleanup
 done
 
 # A worker killed mid-run: the client's retry must save every request.
