@@ -7,11 +7,14 @@
 // options.retries more times (the Lazy Pirate pattern of the ZeroMQ guide). So a server
 // that restarts between or during calls is survived; every request kind is safe to
 // repeat. An UNAVAILABLE reply (the server is shutting down; nothing was done) is retried
-// the same way, after 50 ms, so behind a broker another worker answers. Other error
-// replies are never retried, except OVERLOADED (nothing was done either): the call
-// waits the server's Reply.retry_after_ms (times 1 to 1.5, so that clients refused together
-// do not come back together) and asks again, for at most options.overload_wait_ms in all;
-// then the OVERLOADED reply is the answer.
+// the same way, after 50 ms, so behind a broker another worker answers; so is a reply
+// marked retry_elsewhere (a worker without the map, or of another protocol: its status is
+// returned once the retries are spent). A reply of a newer protocol than this client's is
+// Unimplemented, naming both versions. Other error replies are never retried, except
+// OVERLOADED (nothing was done either): the call waits the server's Reply.retry_after_ms
+// (times 1 to 1.5, so that clients refused together do not come back together) and asks
+// again, for at most options.overload_wait_ms in all; then the OVERLOADED reply is the
+// answer.
 //
 // Not thread-safe: use one Client per thread (each has its own ZeroMQ context).
 #pragma once

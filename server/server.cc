@@ -109,7 +109,6 @@ uint64_t PeekRequestId(const zmq::message_t& payload) {
   return 0;
 }
 
-// Sends [identity][empty?][reply] on `socket` (the ROUTER, or a worker's PUSH).
 // The reply's bytes, stamped with the protocol this server speaks.
 zmq::message_t ReplyBody(v1::Reply reply) {
   reply.set_protocol(kProtocolVersion);
