@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <filesystem>
 
+#include "common/map/map_name.h"
+
 namespace sceneloc {
 
 StatusOr<std::string> FleetRoutes::EndpointOf(const std::string& map) const {
@@ -50,7 +52,9 @@ StatusOr<FleetRoutes> ReadFleetRoutes(const std::string& path) {
       if (!entry.second.IsMap()) return bad("maps: must map each map name to an endpoint");
       for (const auto& route : entry.second) {
         const std::string map = route.first.as<std::string>("");
-        if (map.empty()) return bad("a map name is empty");
+        if (const std::string problem = MapNameProblem(map); !problem.empty()) {
+          return bad("'" + map + "': " + problem);
+        }
         if (!route.second.IsScalar() || route.second.as<std::string>().empty()) {
           return bad("map '" + map + "' has no endpoint");
         }

@@ -10,6 +10,7 @@
 
 #include "common/map/map_io.h"
 #include "common/matching/localiser.h"
+#include "common/matching/self_test.h"
 #include "fuzz/fuzz_world.h"
 #include "server/map_registry.h"
 

@@ -61,10 +61,7 @@ Status DecodeMatrix(const v1::DescriptorMatrix& wire, int n, const char* which,
   }
   const auto* raw = reinterpret_cast<const uint8_t*>(wire.uint8().data());
   for (size_t i = 0; i < want; ++i) out->data()[i] = static_cast<float>(raw[i]);
-  for (Eigen::Index i = 0; i < out->rows(); ++i) {
-    const float norm = out->row(i).norm();
-    if (norm > 0) out->row(i) /= norm;
-  }
+  NormaliseRows(out);
   return Status::Ok();
 }
 
@@ -92,7 +89,10 @@ Status DecodeHolistic(const v1::Holistic& wire, FeatureSet* out) {
 
 Status FeatureSetLimits::Validate() const {
   if (max_keypoints < 1) return InvalidArgument("max_keypoints must be >= 1");
-  if (max_image_side < 16) return InvalidArgument("max_image_side must be >= 16");
+  if (max_image_side < kMinImageSide || max_image_side > kMaxImageSideSetting) {
+    return InvalidArgument("max_image_side must be in [" + std::to_string(kMinImageSide) + ", " +
+                           std::to_string(kMaxImageSideSetting) + "]");
+  }
   return Status::Ok();
 }
 

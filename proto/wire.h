@@ -16,7 +16,7 @@ struct FeatureSetLimits {
   // Most keypoints a feature set may carry (the extractor's default cap is 1000).
   int max_keypoints = 8192;
   // Largest image width or height a feature set may claim, pixels.
-  int max_image_side = 8192;
+  int max_image_side = kDefaultMaxImageSide;
 
   Status Validate() const;
 };

@@ -15,19 +15,7 @@ constexpr uint32_t kChangedMask = IN_CLOSE_WRITE | IN_MOVED_TO;
 constexpr uint32_t kRemovedMask = IN_DELETE | IN_MOVED_FROM;
 constexpr uint32_t kLostMask = IN_DELETE_SELF | IN_MOVE_SELF | IN_IGNORED | IN_UNMOUNT;
 
-bool EndsWith(const std::string& s, const std::string& suffix) {
-  return s.size() >= suffix.size() &&
-         s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
-
 }  // namespace
-
-std::string MapNameOfFile(const std::string& file_name) {
-  const std::string extension = kMapFileExtension;
-  if (!EndsWith(file_name, extension) || file_name.size() == extension.size()) return "";
-  if (file_name[0] == '.') return "";
-  return file_name.substr(0, file_name.size() - extension.size());
-}
 
 StatusOr<std::unique_ptr<DirWatcher>> DirWatcher::Open(const std::string& dir) {
   const int fd = inotify_init1(IN_NONBLOCK | IN_CLOEXEC);

@@ -3,8 +3,9 @@
 //
 // Events: IN_CLOSE_WRITE (a file written in place is complete), IN_MOVED_TO (a file
 // renamed into place: SaveMap's atomic replace), IN_DELETE and IN_MOVED_FROM (a file gone).
-// Only names MapNameOfFile accepts count: SaveMap's temporary "x.scnl.tmp.<pid>" and
-// hidden files are ignored, so a half-written file is never seen under its final name.
+// Only names MapNameOfFile (common/map/map_name.h) accepts count: SaveMap's temporary
+// "x.scnl.tmp.<pid>" and hidden files are ignored, so a half-written file is never seen under its
+// final name.
 //
 // Not thread-safe: one thread owns a watcher (the map loader's).
 #pragma once
@@ -13,13 +14,10 @@
 #include <string>
 #include <vector>
 
+#include "common/map/map_name.h"
 #include "common/util/status.h"
 
 namespace sceneloc {
-
-// The map a file name in the maps directory stands for: "site.scnl" -> "site". Empty for
-// anything else ("site.scnl.tmp.12", ".site.scnl", "notes.txt", ".scnl").
-std::string MapNameOfFile(const std::string& file_name);
 
 // One change to a map file, named by its map (the file stem).
 struct MapFileEvent {

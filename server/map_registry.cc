@@ -11,50 +11,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The self-test query of one location uses at most this many landmarks (enough to
-// exercise every stage; more only costs load time).
-constexpr int kSelfTestMaxFeatures = 1500;
-
-void CopyUnitRow(const DescriptorMatrix& from, int row, DescriptorMatrix* to, int to_row) {
-  to->row(to_row) = from.row(row);
-  const float norm = to->row(to_row).norm();
-  if (norm > 0) to->row(to_row) /= norm;
-}
-
 }  // namespace
-
-FeatureSet SelfTestFeatures(const Map& map, int location) {
-  const uint32_t begin = map.image_offsets[static_cast<size_t>(location)];
-  const uint32_t end = map.image_offsets[static_cast<size_t>(location) + 1];
-  const int n = std::min(static_cast<int>(end - begin), kSelfTestMaxFeatures);
-  FeatureSet f;
-  f.image_width = map.image_width;
-  f.image_height = map.image_height;
-  f.keypoints.resize(static_cast<size_t>(n));
-  f.local.resize(n, kDescriptorSize);
-  f.context.resize(n, kDescriptorSize);
-  for (int i = 0; i < n; ++i) {
-    const uint32_t g = map.image_landmarks[begin + static_cast<uint32_t>(i)];
-    Keypoint& k = f.keypoints[static_cast<size_t>(i)];
-    k.x = map.mean_x[g];
-    k.y = map.mean_y[g];
-    k.size = 8.0f;
-    // Where and how large g was seen in this very image (G_l holds only landmarks seen in
-    // l), so verification's epipolar and scale checks see the location as it was.
-    for (uint32_t o = map.observation_offsets[g]; o < map.observation_offsets[g + 1]; ++o) {
-      if (map.observation_image[o] == static_cast<uint32_t>(location)) {
-        k.x = map.observation_x[o];
-        k.y = map.observation_y[o];
-        k.size = map.observation_size[o];
-        break;
-      }
-    }
-    k.response = 1.0f;
-    CopyUnitRow(map.local_mean, static_cast<int>(g), &f.local, i);
-    CopyUnitRow(map.context_mean, static_cast<int>(g), &f.context, i);
-  }
-  return f;
-}
 
 MapRegistry::MapRegistry(const Options& options) : options_(options) {}
 
@@ -72,27 +29,7 @@ std::vector<std::shared_ptr<const LoadedMap>> MapRegistry::List() const {
 }
 
 Status MapRegistry::SelfTest(const Map& map) const {
-  const int images = map.num_images();
-  const int probes = std::min(options_.self_test_locations, images);
-  for (int p = 0; p < probes; ++p) {
-    // Spread the probes over the tour: first, last, and evenly between.
-    const int location = probes == 1 ? images / 2 : p * (images - 1) / (probes - 1);
-    auto result = Localise(SelfTestFeatures(map, location), map, options_.self_test, nullptr);
-    if (!result.ok()) {
-      return FailedPrecondition("self-test query of location " + std::to_string(location) +
-                                " failed: " + result.status().message());
-    }
-    const auto& ranked = result->ranked;
-    const bool found = std::any_of(ranked.begin(), ranked.end(),
-                                   [&](const RankedLocation& r) { return r.index == location; });
-    if (!found) {
-      return FailedPrecondition(
-          "self-test: location " + std::to_string(location) +
-          "'s own landmarks do not rank it among the best " + std::to_string(ranked.size()) +
-          (ranked.empty() ? "" : " (best: " + std::to_string(ranked[0].index) + ")"));
-    }
-  }
-  return Status::Ok();
+  return SelfTestMap(map, options_.self_test, options_.self_test_locations);
 }
 
 StatusOr<std::shared_ptr<const LoadedMap>> MapRegistry::Load(const std::string& path) {
@@ -103,8 +40,8 @@ StatusOr<std::shared_ptr<const LoadedMap>> MapRegistry::Load(const std::string& 
     return s;
   };
   const std::string name = fs::path(path).stem().string();
-  if (name.empty() || name[0] == '.') {
-    return fail(InvalidArgument("'" + path + "' does not name a map (no file stem)"));
+  if (const std::string problem = MapNameProblem(name); !problem.empty()) {
+    return fail(InvalidArgument("'" + path + "' cannot be served: " + problem));
   }
   MapFileInfo info;
   StatusOr<Map> map = Internal("not loaded");
@@ -157,7 +94,7 @@ Status MapRegistry::LoadDirectory(const std::string& dir, std::vector<Status>* f
   std::vector<std::string> paths;
   for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
     const std::string file = it->path().filename().string();
-    if (it->path().extension() == kMapFileExtension && it->is_regular_file(ec)) {
+    if (!MapNameOfFile(file).empty() && it->is_regular_file(ec)) {
       paths.push_back(it->path().string());
     } else if (ignored != nullptr && !file.empty() && file[0] != '.' &&
                file.find(std::string(kMapFileExtension) + ".tmp.") == std::string::npos) {

@@ -23,14 +23,13 @@
 #include "common/features/extractor.h"
 #include "common/map/map.h"
 #include "common/map/map_io.h"
+#include "common/map/map_name.h"
 #include "common/matching/localiser.h"
+#include "common/matching/self_test.h"
 #include "common/matching/sequence_filter.h"
 #include "common/util/status.h"
 
 namespace sceneloc {
-
-// File extension of the map files a server loads from its maps directory.
-inline constexpr char kMapFileExtension[] = ".scnl";
 
 // One immutable map snapshot and what identifies it.
 struct LoadedMap {
@@ -100,10 +99,5 @@ class MapRegistry {
   uint64_t load_failures_ = 0;
   uint64_t unloads_ = 0;
 };
-
-// A feature set made from the landmarks tour image `location` holds: each landmark's mean
-// descriptors at its position in that image. Localising it must find `location` (or a
-// neighbour sharing its landmarks) if the map is sound. REQUIRES: 0 <= location < images.
-FeatureSet SelfTestFeatures(const Map& map, int location);
 
 }  // namespace sceneloc

@@ -7,6 +7,7 @@
 #include <new>
 #include <optional>
 
+#include "common/map/map_name.h"
 #include "common/util/timer.h"
 #include "proto/wire.h"
 #include "server/jpeg_header.h"
@@ -27,16 +28,6 @@ std::string IsoUtc(std::chrono::system_clock::time_point t) {
   char text[32];
   std::strftime(text, sizeof(text), "%Y-%m-%dT%H:%M:%SZ", &tm);
   return text;
-}
-
-// A map name is a plain file stem: it must not reach outside the maps directory.
-bool IsPlainName(const std::string& name) {
-  if (name.empty() || name.size() > 255 || name[0] == '.') return false;
-  for (const char c : name) {
-    const bool ok = std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.';
-    if (!ok) return false;
-  }
-  return true;
 }
 
 // Checks a JPEG's header against the limits, reserves its decoding memory from `budget`
@@ -311,7 +302,7 @@ void RequestHandler::UpdateSession(const v1::LocaliseRequest& request, const std
 }
 
 Status RequestHandler::CheckReload(const v1::ReloadMapRequest& request) {
-  if (!IsPlainName(request.map())) {
+  if (!IsValidMapName(request.map())) {
     return InvalidArgument("'" + request.map() + "' is not a map name (a plain file stem)");
   }
   return Status::Ok();

@@ -70,6 +70,10 @@ int main(int argc, char** argv) {
   CLI::App app{"sceneloc-server: serves landmark maps over ZeroMQ"};
   std::string config_path;
   app.add_option("--config", config_path, "settings file, e.g. configs/server.yaml");
+  bool print_config = false;
+  app.add_flag("--print-config", print_config,
+               "print the settings in effect (file, then flags) as a documented settings "
+               "file, and exit");
   std::map<std::string, std::string> flag_values;
   for (const sceneloc::ServerFlag& flag : sceneloc::ServerFlags()) {
     app.add_option_function<std::string>(
@@ -95,6 +99,10 @@ int main(int argc, char** argv) {
   if (!resolved.ok()) {
     std::fprintf(stderr, "sceneloc-server: %s\n", resolved.message().c_str());
     return 2;
+  }
+  if (print_config) {
+    std::fputs(sceneloc::DocumentedServerSettings(options).c_str(), stdout);
+    return 0;
   }
   spdlog::set_level(spdlog::level::from_str(options.log_level));
   spdlog::debug("settings:\n{}", sceneloc::ServerOptionsToYaml(options));

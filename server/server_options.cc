@@ -1,84 +1,130 @@
 #include "server/server_options.h"
 
-#include <spdlog/common.h>
-
 #include <algorithm>
 
 #include "common/config/config.h"
+#include "common/features/feature_set.h"
 #include "common/keys/keys.h"
 #include "server/http_endpoint.h"
 
 namespace sceneloc {
 namespace {
 
-// Every settable field of the server: its own server: and limits: sections, then the
-// engine's matching: section (the same keys as configs/match.yaml).
-SettingTable Fields(ServerOptions* o) {
-  RequestLimits* l = &o->limits;
-  SettingTable table = {
-      {"server", "maps_dir", &o->maps_dir, 0, 0,
-       "folder of map files (*.scnl), served by file stem", "maps"},
-      {"server", "watch_maps", &o->watch_maps, 0, 0,
-       "load/unload maps as their files change in maps_dir (inotify)"},
-      {"server", "reload_debounce_ms", &o->reload_debounce_ms, 0, 60000,
-       "act on a map file's changes once quiet this long, ms"},
-      {"server", "endpoint", &o->endpoint, 0, 0, "ZeroMQ endpoint to bind, e.g. tcp://*:5555"},
-      {"server", "connect", &o->connect, 0, 0,
-       "worker mode: connect to a sceneloc-broker backend, e.g. tcp://host:5556, instead of "
-       "binding endpoint"},
-      {"server", "metrics_endpoint", &o->metrics_endpoint, 0, 0,
-       "HOST:PORT for Prometheus /metrics and the /healthz, /readyz probes, e.g. "
-       "127.0.0.1:9464 (empty = none)"},
-      {"server", "threads", &o->threads, 1, 256, "worker threads"},
-      {"server", "queue_capacity", &o->queue_capacity, 1, 1000000,
-       "requests waiting for a worker at most; more get OVERLOADED"},
-      {"server", "log_level", &o->log_level, 0, 0,
-       "trace, debug, info, warn, error, critical, off"},
-      {"server", "summary_interval_s", &o->summary_interval_s, 0, 1e6,
-       "seconds between summary log lines (0 = none)", "summary-interval"},
-      {"server", "drain_timeout_s", &o->drain_timeout_s, 0, 3600,
-       "seconds to wait for in-flight requests on SIGTERM", "drain-timeout"},
-      {"limits", "max_message_bytes", &l->max_message_bytes, 1024, 1e9, "largest request, bytes"},
-      {"limits", "max_image_side", &l->max_image_side, 16, 65536,
-       "largest JPEG width or height, pixels"},
-      {"limits", "max_image_pixels", &l->max_image_pixels, 256, 1e10,
-       "largest JPEG width x height, pixels"},
-      {"limits", "max_keypoints", &l->max_keypoints, 1, 1000000, "most keypoints in a feature set"},
-      {"limits", "max_top_k", &l->max_top_k, 1, 1000, "most ranked locations per request"},
-      {"limits", "max_request_ms", &l->max_request_ms, 1, 3600000,
-       "a localise request's time budget from its arrival, ms (then DEADLINE_EXCEEDED)"},
-      {"limits", "max_jpeg_scans", &l->max_jpeg_scans, 1, 100000,
-       "most scans in a JPEG (progressive JPEGs have ~10); more is a decompression bomb"},
-      {"limits", "max_map_bytes", &l->max_map_bytes, 1024, 1e15,
-       "largest map file read, bytes; larger ones are skipped unread"},
-      {"limits", "max_in_flight_per_client", &l->max_in_flight_per_client, 1, 1000000,
-       "requests one connection may have queued or running; more get OVERLOADED"},
-      {"limits", "max_in_flight_per_key", &l->max_in_flight_per_key, 1, 1000000,
-       "with auth: requests all connections of one key may have queued or running"},
-      {"limits", "max_queued_bytes", &l->max_queued_bytes, 1024, 1e15,
-       "bytes of requests queued or running, all connections; more get OVERLOADED"},
-      {"limits", "max_decode_bytes", &l->max_decode_bytes, 1 << 20, 1e15,
-       "memory the JPEG decodes running at once may hold together, bytes"},
-      {"limits", "max_queue_wait_ms", &l->max_queue_wait_ms, 1, 3600000,
-       "longest estimated wait for a worker before OVERLOADED, ms"},
-      {"auth", "enabled", &o->auth.enabled, 0, 0,
-       "CURVE encryption, admitting only the keys in auth.clients", "auth"},
-      {"auth", "server_key", &o->auth.server_key, 0, 0, "the server's key pair file (.key)",
-       "server-key"},
-      {"auth", "clients", &o->auth.clients, 0, 0, "authorised client keys file (re-read on SIGHUP)",
-       "auth-clients"},
-      {"sessions", "max_sessions", &o->sessions.max_sessions, 1, 1e9,
-       "live sessions at most; a new one beyond drops the least recently used", "max-sessions"},
-      {"sessions", "idle_timeout_s", &o->sessions.idle_timeout_s, 1e-3, 1e9,
-       "a session unused this long is dropped, seconds", "session-idle-timeout"},
-      {"sessions", "max_state_bytes", &o->sessions.max_state_bytes, 1, 1e15,
-       "the sessions' filter states together at most, bytes; past it the least recently used "
-       "are dropped",
-       "max-session-bytes"},
+// The server: section, bound to `o`.
+SettingTable ServerSection(ServerOptions* o) {
+  return {
+      Setting("server", "maps_dir", &o->maps_dir)
+          .Help("every *.scnl here is served under its file stem")
+          .Flag("maps"),
+      Setting("server", "watch_maps", &o->watch_maps)
+          .Help("follow the folder: new/replaced files load, deleted ones unload (inotify)"),
+      Setting("server", "reload_debounce_ms", &o->reload_debounce_ms)
+          .Range(0, 60000)
+          .Unit("ms")
+          .Help("act on a map file's changes once it has been quiet this long"),
+      Setting("server", "endpoint", &o->endpoint).Help("ZeroMQ ROUTER endpoint to bind"),
+      Setting("server", "connect", &o->connect)
+          .Help("worker mode: connect to a sceneloc-broker backend, e.g. tcp://host:5556, "
+                "instead of binding endpoint (\"\" = bind)"),
+      Setting("server", "metrics_endpoint", &o->metrics_endpoint)
+          .Help("HOST:PORT for Prometheus /metrics, /healthz, /readyz (\"\" = none)"),
+      Setting("server", "threads", &o->threads)
+          .Range(1, 256)
+          .Help("worker threads (also the engine's ParallelFor width)"),
+      Setting("server", "queue_capacity", &o->queue_capacity)
+          .Range(1, 1000000)
+          .Help("requests waiting for a worker; more get OVERLOADED at once"),
+      Setting("server", "log_level", &o->log_level)
+          .Choices({"trace", "debug", "info", "warn", "error", "critical", "off"})
+          .Help("debug logs a line per request"),
+      Setting("server", "summary_interval_s", &o->summary_interval_s)
+          .Range(0, 1e6)
+          .Unit("s")
+          .Help("between summary lines at info (0 = none)")
+          .Flag("summary-interval"),
+      Setting("server", "drain_timeout_s", &o->drain_timeout_s)
+          .Range(0, 3600)
+          .Unit("s")
+          .Help("on SIGTERM, wait this long for in-flight requests")
+          .Flag("drain-timeout"),
   };
-  for (SettingField& f : MatchSettingTable(&o->matching)) {
-    f.help = f.section + "." + f.key + " (configs/match.yaml)";
-    table.push_back(std::move(f));
+}
+
+// The limits: section.
+SettingTable LimitsSettings(RequestLimits* l) {
+  return {
+      Setting("limits", "max_message_bytes", &l->max_message_bytes)
+          .Range(1024, 1e9)
+          .Unit("bytes")
+          .Help("larger requests get RESOURCE_EXHAUSTED (over 2x: disconnected)"),
+      Setting("limits", "max_image_side", &l->max_image_side)
+          .Range(kMinImageSide, kMaxImageSideSetting)
+          .Unit("pixels")
+          .Help("JPEG width/height cap, read from the header before decoding"),
+      Setting("limits", "max_image_pixels", &l->max_image_pixels)
+          .Range(256, 1e10)
+          .Unit("pixels")
+          .Help("JPEG width x height cap"),
+      Setting("limits", "max_keypoints", &l->max_keypoints)
+          .Range(1, 1000000)
+          .Help("keypoints per feature-set request"),
+      Setting("limits", "max_top_k", &l->max_top_k)
+          .Range(1, 1000)
+          .Help("ranked locations a request may ask for"),
+      Setting("limits", "max_request_ms", &l->max_request_ms)
+          .Range(1, 3600000)
+          .Unit("ms")
+          .Help("a localise request's time budget from arrival (then DEADLINE_EXCEEDED)"),
+      Setting("limits", "max_jpeg_scans", &l->max_jpeg_scans)
+          .Range(1, 100000)
+          .Help("scans per JPEG (progressive ones have ~10): a decoding-time budget"),
+      Setting("limits", "max_map_bytes", &l->max_map_bytes)
+          .Range(1024, 1e15)
+          .Unit("bytes")
+          .Help("largest map file read; larger ones are logged and skipped unread"),
+      Setting("limits", "max_in_flight_per_client", &l->max_in_flight_per_client)
+          .Range(1, 1000000)
+          .Help("requests one connection may have queued or running (then OVERLOADED)"),
+      Setting("limits", "max_in_flight_per_key", &l->max_in_flight_per_key)
+          .Range(1, 1000000)
+          .Help("with auth: the same over all connections of one key"),
+      Setting("limits", "max_queued_bytes", &l->max_queued_bytes)
+          .Range(1024, 1e15)
+          .Unit("bytes")
+          .Help("of requests queued or running, all clients (then OVERLOADED)"),
+      Setting("limits", "max_decode_bytes", &l->max_decode_bytes)
+          .Range(1 << 20, 1e15)
+          .Unit("bytes")
+          .Help("memory of the JPEG decodes running at once (estimated from headers)"),
+      Setting("limits", "max_queue_wait_ms", &l->max_queue_wait_ms)
+          .Range(1, 3600000)
+          .Unit("ms")
+          .Help("longest estimated wait for a worker; beyond it OVERLOADED at once"),
+  };
+}
+
+// The auth: section.
+SettingTable AuthSettings(AuthOptions* a) {
+  return {
+      Setting("auth", "enabled", &a->enabled)
+          .Help("CURVE encryption; only keys listed in auth.clients connect")
+          .Flag("auth"),
+      Setting("auth", "server_key", &a->server_key)
+          .Help("the server's key pair file (sceneloc keygen server)")
+          .Flag("server-key"),
+      Setting("auth", "clients", &a->clients)
+          .Help("authorised client keys file, re-read on SIGHUP; admin: true may reload")
+          .Flag("auth-clients"),
+  };
+}
+
+// Every settable field of the server, each declared once: its own sections, the sessions'
+// (server/session_store.cc), then the engine's matching: and sequence: (configs/match.yaml).
+SettingTable Fields(ServerOptions* o) {
+  SettingTable table = ServerSection(o);
+  for (SettingTable part : {LimitsSettings(&o->limits), AuthSettings(&o->auth),
+                            SessionSettings(&o->sessions), MatchSettings(&o->matching)}) {
+    table.insert(table.end(), part.begin(), part.end());
   }
   return table;
 }
@@ -86,18 +132,8 @@ SettingTable Fields(ServerOptions* o) {
 }  // namespace
 
 Status RequestLimits::Validate() const {
-  if (max_message_bytes < 1024) return InvalidArgument("max_message_bytes must be >= 1024");
-  if (max_image_side < 16) return InvalidArgument("max_image_side must be >= 16");
-  if (max_image_pixels < 256) return InvalidArgument("max_image_pixels must be >= 256");
-  if (max_keypoints < 1) return InvalidArgument("max_keypoints must be >= 1");
-  if (max_top_k < 1) return InvalidArgument("max_top_k must be >= 1");
-  if (max_map_bytes < 1024) return InvalidArgument("max_map_bytes must be >= 1024");
-  if (max_jpeg_scans < 1) return InvalidArgument("max_jpeg_scans must be >= 1");
-  if (max_request_ms < 1) return InvalidArgument("max_request_ms must be >= 1");
-  if (max_in_flight_per_client < 1) return InvalidArgument("max_in_flight_per_client must be >= 1");
-  if (max_in_flight_per_key < 1) return InvalidArgument("max_in_flight_per_key must be >= 1");
-  if (max_decode_bytes < (1 << 20)) return InvalidArgument("max_decode_bytes must be >= 1 MiB");
-  if (max_queue_wait_ms < 1) return InvalidArgument("max_queue_wait_ms must be >= 1");
+  RequestLimits copy = *this;
+  SCENELOC_RETURN_IF_ERROR(CheckSettings(LimitsSettings(&copy)));
   if (max_queued_bytes < max_message_bytes) {
     return InvalidArgument("max_queued_bytes (" + std::to_string(max_queued_bytes) +
                            ") must be >= max_message_bytes (" + std::to_string(max_message_bytes) +
@@ -107,6 +143,8 @@ Status RequestLimits::Validate() const {
 }
 
 Status AuthOptions::Validate() const {
+  AuthOptions copy = *this;
+  SCENELOC_RETURN_IF_ERROR(CheckSettings(AuthSettings(&copy)));
   if (!enabled) return Status::Ok();
   if (server_key.empty())
     return InvalidArgument("auth.enabled needs auth.server_key (a .key file)");
@@ -118,15 +156,9 @@ Status AuthOptions::Validate() const {
 Status ServerOptions::Validate() const {
   if (maps_dir.empty()) return InvalidArgument("maps_dir must be set");
   if (endpoint.empty()) return InvalidArgument("endpoint must be set");
-  if (reload_debounce_ms < 0) return InvalidArgument("reload_debounce_ms must be >= 0");
-  if (threads < 1) return InvalidArgument("threads must be >= 1");
-  if (queue_capacity < 1) return InvalidArgument("queue_capacity must be >= 1");
-  if (spdlog::level::from_str(log_level) == spdlog::level::off && log_level != "off") {
-    return InvalidArgument("log_level '" + log_level +
-                           "' is not one of trace, debug, info, warn, error, critical, off");
-  }
-  if (!(summary_interval_s >= 0)) return InvalidArgument("summary_interval_s must be >= 0");
-  if (!(drain_timeout_s >= 0)) return InvalidArgument("drain_timeout_s must be >= 0");
+  ServerOptions copy = *this;
+  SCENELOC_RETURN_IF_ERROR(CheckSettings(ServerSection(&copy)));
+  SCENELOC_RETURN_IF_ERROR(sessions.Validate());
   SCENELOC_RETURN_IF_ERROR(limits.Validate());
   SCENELOC_RETURN_IF_ERROR(auth.Validate());
   if (!metrics_endpoint.empty()) {
@@ -138,7 +170,6 @@ Status ServerOptions::Validate() const {
         "server.connect (worker mode) cannot be combined with auth.enabled: clients "
         "authenticate with the server they connect to, which is then the broker");
   }
-  SCENELOC_RETURN_IF_ERROR(sessions.Validate());
   return matching.Validate();
 }
 
@@ -161,7 +192,9 @@ std::vector<ServerFlag> ServerFlags() {
   ServerOptions scratch;
   std::vector<ServerFlag> flags;
   for (const SettingField& f : Fields(&scratch)) {
-    flags.push_back({f.FlagName(), f.section, f.key, f.help});
+    const std::string accepts = f.is_number() || !f.choices.empty() ? f.Describe() : "";
+    flags.push_back(
+        {f.FlagName(), f.section, f.key, accepts.empty() ? f.help : f.help + " (" + accepts + ")"});
   }
   return flags;
 }
@@ -194,6 +227,21 @@ Status ApplyServerFlag(const ServerFlag& flag, const std::string& value, ServerO
 std::string ServerOptionsToYaml(const ServerOptions& options) {
   ServerOptions copy = options;
   return SettingsToYaml(Fields(&copy));
+}
+
+std::string DocumentedServerSettings(const ServerOptions& options) {
+  ServerOptions copy = options;
+  return SettingsToDocumentedYaml(
+      Fields(&copy),
+      "# sceneloc-server settings, as `sceneloc-server --print-config` prints them (the\n"
+      "# defaults). Every field is also a flag (sceneloc-server --help): a flag overrides the\n"
+      "# file. Unknown keys are errors. Meaning of each: server/server_options.h.\n",
+      {{"auth",
+        "Who may connect (README \"Authenticated clients\"). Off: anyone who reaches\n"
+        "the endpoint."},
+       {"sessions", "Robots' sessions kept in the server (README \"Robot sessions\")."},
+       {"matching", "Recognition settings, as configs/match.yaml (common/matching/localiser.h)."},
+       {"sequence", "The filter of requests that name a session, as configs/match.yaml."}});
 }
 
 }  // namespace sceneloc

@@ -6,7 +6,12 @@
 //              max_request_ms, max_jpeg_scans, max_map_bytes, max_in_flight_per_client,
 //              max_in_flight_per_key, max_queued_bytes, max_decode_bytes, max_queue_wait_ms
 //   auth:      enabled, server_key, clients
-//   matching:  as configs/match.yaml (common/config/config.h)
+//   sessions:  max_sessions, idle_timeout_s, max_state_bytes
+//   matching:, sequence:  as configs/match.yaml (common/config/config.h)
+//
+// Each field is declared once, with its range, unit and help (server_options.cc,
+// common/util/settings.h): the file reader, Validate(), the flags and configs/server.yaml
+// all come from that declaration.
 //
 // Strict like common/config: an unknown section or key, a wrong type or an out-of-range
 // value is an error naming the source and the key.
@@ -28,7 +33,9 @@ struct RequestLimits {
   // Largest request the server reads, bytes. A larger one gets RESOURCE_EXHAUSTED; one
   // over twice this is cut off by ZeroMQ itself (ZMQ_MAXMSGSIZE) and the peer disconnected.
   int64_t max_message_bytes = 8 << 20;
-  // Largest image width or height (read from the JPEG header before decoding), pixels.
+  // Largest image width or height a request may carry, pixels: a JPEG's (read from its
+  // header before decoding) and a feature set's. Below the engine's kDefaultMaxImageSide
+  // (common/features/feature_set.h): a server decodes untrusted JPEGs.
   int max_image_side = 4096;
   // Largest width x height of a JPEG, pixels (decoding allocates 3 bytes per pixel).
   int64_t max_image_pixels = 16 << 20;
@@ -149,5 +156,9 @@ Status ApplyServerFlag(const ServerFlag& flag, const std::string& value, ServerO
 
 // The settings as YAML, in the file's layout (logged at start-up).
 std::string ServerOptionsToYaml(const ServerOptions& options);
+
+// `options` as a documented settings file (sceneloc-server --print-config). For the
+// defaults it is configs/server.yaml, exactly (tests/server/server_options_test checks it).
+std::string DocumentedServerSettings(const ServerOptions& options = ServerOptions());
 
 }  // namespace sceneloc

@@ -20,13 +20,29 @@ size_t BeliefBytes(const SequenceState& state) { return state.belief.capacity() 
 
 }  // namespace
 
+SettingTable SessionSettings(SessionOptions* o) {
+  return {
+      Setting("sessions", "max_sessions", &o->max_sessions)
+          .Range(1, 1e9)
+          .Help("live sessions at most; a new one beyond drops the least recently used")
+          .Flag("max-sessions"),
+      Setting("sessions", "idle_timeout_s", &o->idle_timeout_s)
+          .Range(1e-3, 1e9)
+          .Unit("s")
+          .Help("a session unused this long is dropped")
+          .Flag("session-idle-timeout"),
+      Setting("sessions", "max_state_bytes", &o->max_state_bytes)
+          .Range(1, 1e15)
+          .Unit("bytes")
+          .Help("filter states together at most (a float per tour location each); past it "
+                "the least recently used are dropped")
+          .Flag("max-session-bytes"),
+  };
+}
+
 Status SessionOptions::Validate() const {
-  if (max_sessions < 1) return InvalidArgument("sessions.max_sessions must be >= 1");
-  if (max_state_bytes < 1) return InvalidArgument("sessions.max_state_bytes must be >= 1");
-  if (!(idle_timeout_s > 0) || !std::isfinite(idle_timeout_s)) {
-    return InvalidArgument("sessions.idle_timeout_s must be > 0");
-  }
-  return Status::Ok();
+  SessionOptions copy = *this;
+  return CheckSettings(SessionSettings(&copy));
 }
 
 SessionStore::SessionStore(const SessionOptions& options) : options_(options) {}

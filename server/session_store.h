@@ -25,6 +25,7 @@
 #include <unordered_map>
 
 #include "common/matching/sequence_filter.h"
+#include "common/util/settings.h"
 #include "common/util/status.h"
 #include "proto/wire.h"
 
@@ -41,8 +42,12 @@ struct SessionOptions {
   // still continue from the state their replies carry.
   int64_t max_state_bytes = int64_t{64} << 20;
 
+  // The ranges of SessionSettings.
   Status Validate() const;
 };
+
+// The server's sessions: section, bound to `o`.
+SettingTable SessionSettings(SessionOptions* o);
 
 enum class SessionStart { kContinued, kNew, kReset, kMapReloaded };
 

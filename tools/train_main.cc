@@ -90,12 +90,16 @@ int main(int argc, char** argv) {
   std::string tour_dir, out_path, config_path;
   int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   int eta = -1;
-  app.add_option("--tour", tour_dir, "folder of tour images, in tour order by file name")
-      ->required();
-  app.add_option("--out", out_path, "map file to write")->required();
+  bool print_config = false;
+  app.add_option("--tour", tour_dir,
+                 "folder of tour images, in tour order by file name (required)");
+  app.add_option("--out", out_path, "map file to write (required)");
   app.add_option("--config", config_path, "training settings (YAML), e.g. configs/train.yaml");
   app.add_option("--eta", eta, "override selection.eta (landmarks per image; 0 = keep all)");
   app.add_option("--threads", threads, "worker threads")->check(CLI::Range(1, 256));
+  app.add_flag("--print-config", print_config,
+               "print the settings in effect (defaults, --config, --eta) as a documented "
+               "settings file, and exit");
   CLI11_PARSE(app, argc, argv);
 
   sceneloc::TrainOptions options;
@@ -107,6 +111,14 @@ int main(int argc, char** argv) {
     }
   }
   if (eta >= 0) options.eta = eta;
+  if (print_config) {
+    std::fputs(sceneloc::DocumentedTrainSettings(options).c_str(), stdout);
+    return 0;
+  }
+  if (tour_dir.empty() || out_path.empty()) {
+    std::fprintf(stderr, "sceneloc-train: --tour and --out are required (see --help)\n");
+    return 2;
+  }
   if (const sceneloc::Status s = CheckOutput(out_path); !s.ok()) {
     std::fprintf(stderr, "sceneloc-train: %s\n", s.message().c_str());
     return 2;

@@ -25,14 +25,18 @@ Status LoadMatchOptions(const std::string& path, MatchOptions* options);
 Status ParseTrainOptions(const std::string& yaml, const std::string& name, TrainOptions* options);
 Status ParseMatchOptions(const std::string& yaml, const std::string& name, MatchOptions* options);
 
-// The fields of each settings file, bound to `options` (for tools that add flags or embed
-// a section in their own file, like the server's matching: section).
-SettingTable TrainSettingTable(TrainOptions* options);
-SettingTable MatchSettingTable(MatchOptions* options);
+// The fields of each file are declared once, beside their structs: TrainSettings
+// (common/map/train_options.h) and MatchSettings (common/matching/localiser.h).
 
 // The settings as YAML text, in the same layout the files use (printed by the tools and
 // stored nowhere else: the map file stores the structs themselves).
 std::string TrainOptionsToYaml(const TrainOptions& options);
 std::string MatchOptionsToYaml(const MatchOptions& options);
+
+// The settings as documented files (--print-config of sceneloc-train and sceneloc-eval).
+// For the defaults they are configs/train.yaml and configs/match.yaml, exactly
+// (tests/config checks it).
+std::string DocumentedTrainSettings(const TrainOptions& options = TrainOptions());
+std::string DocumentedMatchSettings(const MatchOptions& options = MatchOptions());
 
 }  // namespace sceneloc

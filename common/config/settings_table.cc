@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <fstream>
 #include <sstream>
+#include <type_traits>
 
 namespace sceneloc {
 namespace {
@@ -16,23 +17,27 @@ const char* TypeName(const SettingField& f) {
   return "an integer";
 }
 
-Status CheckRange(const SettingField& f, double v, const std::string& text,
-                  const std::string& where) {
-  if (v >= f.min && v <= f.max) return Status::Ok();
-  std::ostringstream m;
-  m << where << " = " << text << " is out of range [" << f.min << ", " << f.max << "]";
-  return InvalidArgument(m.str());
+// Range check before the value is stored: an out-of-range integer never reaches its field.
+Status CheckNumber(const SettingField& f, double v, const std::string& text,
+                   const std::string& where) {
+  if (InRange(f, v)) return Status::Ok();
+  return InvalidArgument(where + " = " + text + " is outside " + f.Describe());
 }
 
 Status SetFromNode(const SettingField& f, const YAML::Node& value, const std::string& where) {
   try {
     if (!value.IsScalar()) return InvalidArgument(where + " must be " + TypeName(f));
     if (auto* s = std::get_if<std::string*>(&f.target)) {
-      **s = value.as<std::string>();
+      const std::string text = value.as<std::string>();
+      if (!f.choices.empty() &&
+          std::find(f.choices.begin(), f.choices.end(), text) == f.choices.end()) {
+        return InvalidArgument(where + " = '" + text + "' is not one of " + f.Describe());
+      }
+      **s = text;
     } else if (auto* b = std::get_if<bool*>(&f.target)) {
       **b = value.as<bool>();
     } else {
-      SCENELOC_RETURN_IF_ERROR(CheckRange(f, value.as<double>(), value.as<std::string>(), where));
+      SCENELOC_RETURN_IF_ERROR(CheckNumber(f, value.as<double>(), value.as<std::string>(), where));
       if (auto* i = std::get_if<int*>(&f.target)) {
         **i = value.as<int>();
       } else if (auto* l = std::get_if<int64_t*>(&f.target)) {
@@ -48,13 +53,6 @@ Status SetFromNode(const SettingField& f, const YAML::Node& value, const std::st
 }
 
 }  // namespace
-
-std::string SettingField::FlagName() const {
-  if (!flag.empty()) return flag;
-  std::string dashed = key;
-  std::replace(dashed.begin(), dashed.end(), '_', '-');
-  return dashed;
-}
 
 Status ApplySettings(const std::string& yaml, const std::string& name, const SettingTable& table) {
   YAML::Node root;
@@ -109,6 +107,65 @@ std::string SettingsToYaml(const SettingTable& table) {
   if (!open.empty()) out << YAML::EndMap;
   out << YAML::EndMap;
   return out.c_str();
+}
+
+namespace {
+
+// One value as it is written in a settings file.
+std::string ValueText(const SettingField& f) {
+  if (f.is_number()) {
+    return std::visit(
+        [](auto* p) -> std::string {
+          using T = std::decay_t<decltype(*p)>;
+          if constexpr (std::is_same_v<T, std::string> || std::is_same_v<T, bool>) {
+            return "";
+          } else {
+            return FormatSettingNumber(static_cast<double>(*p));
+          }
+        },
+        f.target);
+  }
+  YAML::Emitter out;
+  if (const auto* b = std::get_if<bool*>(&f.target)) {
+    out << **b;
+  } else {
+    out << *std::get<std::string*>(f.target);
+  }
+  return out.c_str();
+}
+
+// The comment of one key: its help, then what it accepts (numbers and choices).
+std::string Comment(const SettingField& f) {
+  std::string accepts = std::holds_alternative<bool*>(f.target) ? "" : f.Describe();
+  if (f.help.empty()) return accepts;
+  return accepts.empty() ? f.help : f.help + "; " + accepts;
+}
+
+}  // namespace
+
+std::string SettingsToDocumentedYaml(const SettingTable& table, const std::string& preamble,
+                                     const std::map<std::string, std::string>& section_notes) {
+  constexpr size_t kCommentColumn = 30;
+  std::string text = preamble;
+  std::string open;
+  for (const SettingField& f : table) {
+    if (f.section != open) {
+      open = f.section;
+      if (const auto note = section_notes.find(open); note != section_notes.end()) {
+        std::istringstream lines(note->second);
+        for (std::string line; std::getline(lines, line);) text += "# " + line + "\n";
+      }
+      text += open + ":\n";
+    }
+    std::string line = "  " + f.key + ": " + ValueText(f);
+    const std::string comment = Comment(f);
+    if (!comment.empty()) {
+      line.append(line.size() < kCommentColumn ? kCommentColumn - line.size() : 1, ' ');
+      line += "# " + comment;
+    }
+    text += line + "\n";
+  }
+  return text;
 }
 
 StatusOr<std::string> ReadSettingsFile(const std::string& path) {

@@ -11,23 +11,42 @@
 
 namespace sceneloc {
 
+SettingTable ExtractorSettings(ExtractorOptions* o, const std::string& section) {
+  SettingTable table = {
+      Setting(section, "max_features", &o->max_features)
+          .Range(1, 100000)
+          .Off(0)
+          .Help("strongest SIFT keypoints kept per image (0 = no cap)"),
+      Setting(section, "working_size", &o->working_size)
+          .Range(64, 4096)
+          .Unit("pixels")
+          .Help("long side of the working frame (960x540 -> 480x270, 160x120 -> 480x360)"),
+      Setting(section, "context_scale", &o->context_scale)
+          .Range(1.01, 8)
+          .Help("context descriptor size / keypoint size (paper: 2)"),
+      Setting(section, "contrast_threshold", &o->contrast_threshold)
+          .Range(1e-6, 1)
+          .Help("OpenCV SIFT defaults (0.02 measured no better, slower)"),
+      Setting(section, "edge_threshold", &o->edge_threshold).Range(1e-6, 1000),
+      Setting(section, "sigma", &o->sigma).Range(0.1, 10).Unit("pixels"),
+      Setting(section, "clahe_clip", &o->clahe_clip)
+          .Range(0, 100)
+          .Help("local contrast equalisation before SIFT (0 = off; measured, not better)"),
+      Setting(section, "root_sift", &o->root_sift)
+          .Help("RootSIFT descriptors (measured, not better on every set)"),
+      Setting(section, "max_image_side", &o->max_image_side)
+          .Range(kMinImageSide, kMaxImageSideSetting)
+          .Unit("pixels")
+          .Help("larger images are refused"),
+  };
+  for (SettingField& f : HolisticSettings(&o->holistic, section)) table.push_back(std::move(f));
+  return table;
+}
+
 Status ExtractorOptions::Validate() const {
-  if (max_features < 0) return InvalidArgument("max_features must be >= 0 (0 = no cap)");
-  if (working_size < 64 || working_size > 4096) {
-    return InvalidArgument("working_size must be in [64, 4096]");
-  }
-  if (!(context_scale > 1.0 && context_scale <= 8.0)) {
-    return InvalidArgument("context_scale must be in (1, 8]");
-  }
-  if (!(contrast_threshold > 0.0)) return InvalidArgument("contrast_threshold must be > 0");
-  if (!(edge_threshold > 0.0)) return InvalidArgument("edge_threshold must be > 0");
-  if (!(sigma > 0.0)) return InvalidArgument("sigma must be > 0");
-  if (!(clahe_clip >= 0.0 && clahe_clip <= 100.0)) {
-    return InvalidArgument("clahe_clip must be in [0, 100]");
-  }
-  if (max_image_side < kMinImageSide) return InvalidArgument("max_image_side must be >= 16");
-  SCENELOC_RETURN_IF_ERROR(holistic.Validate());
-  return Status::Ok();
+  ExtractorOptions copy = *this;
+  SCENELOC_RETURN_IF_ERROR(CheckSettings(ExtractorSettings(&copy)));
+  return holistic.Validate();
 }
 
 ExtractionTarget TourTarget(int width, int height, const ExtractorOptions& options) {
@@ -58,14 +77,6 @@ namespace {
 
 // Scale levels per pyramid octave: OpenCV's default and Lowe's, fixed for every map.
 constexpr int kSiftOctaveLayers = 3;
-
-// L2-normalises each row; an all-zero row stays zero.
-void NormaliseRows(DescriptorMatrix* m) {
-  for (Eigen::Index i = 0; i < m->rows(); ++i) {
-    const float norm = m->row(i).norm();
-    if (norm > 0) m->row(i) /= norm;
-  }
-}
 
 // RootSIFT (Arandjelovic & Zisserman 2012): each row L1-normalised and square-rooted, so
 // that Euclidean distance compares descriptors by the Hellinger kernel. Rows stay unit L2.

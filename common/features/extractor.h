@@ -21,8 +21,6 @@
 
 namespace sceneloc {
 
-// Images smaller than this on either side hold no usable feature and are refused.
-inline constexpr int kMinImageSide = 16;
 // Small images are enlarged by at most this factor to reach their working frame (a 160x120
 // frame reaches 480x360; a 40x30 one stops at 160x120).
 inline constexpr double kMaxUpscale = 4.0;
@@ -43,7 +41,7 @@ struct ExtractorOptions {
   double edge_threshold = 10.0;
   double sigma = 1.6;
   // Refuse images larger than this many pixels per side (untrusted input).
-  int max_image_side = 8192;
+  int max_image_side = kDefaultMaxImageSide;
   // Lighting options, measured and off by default (docs/results.md): contrast-limited
   // adaptive histogram equalisation of the working frame before SIFT, with this clip limit
   // (0 = off); RootSIFT descriptors instead of SIFT's.
@@ -52,8 +50,13 @@ struct ExtractorOptions {
   // The holistic descriptor (holistic.h); holistic.cols = 0 turns it off.
   HolisticOptions holistic;
 
+  // The ranges of ExtractorSettings, and the holistic descriptor's own rule.
   Status Validate() const;
 };
+
+// The fields of `o` as settings under `section` (training files: extractor:), with the
+// holistic descriptor's.
+SettingTable ExtractorSettings(ExtractorOptions* o, const std::string& section = "extractor");
 
 // Where one image is extracted: the frame it is resized to and the holistic grid.
 struct ExtractionTarget {

@@ -5,6 +5,13 @@
 
 namespace sceneloc {
 
+void NormaliseRows(DescriptorMatrix* m) {
+  for (Eigen::Index i = 0; i < m->rows(); ++i) {
+    const float norm = m->row(i).norm();
+    if (norm > 0) m->row(i) /= norm;
+  }
+}
+
 Status ValidateFeatureSet(const FeatureSet& f) {
   if (f.image_width <= 0 || f.image_height <= 0) {
     return InvalidArgument("feature set image size must be positive");

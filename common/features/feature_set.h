@@ -15,6 +15,18 @@ inline constexpr int kDescriptorSize = 128;
 inline constexpr int kNumHistograms = 16;
 inline constexpr int kHistogramBins = 8;
 
+// Image sizes, pixels per side, one name per meaning:
+//  - kMinImageSide: smaller images hold no usable feature and are refused everywhere;
+//  - kDefaultMaxImageSide: the largest image the engine takes by default, the extractor's
+//    max_image_side (a training setting, stored in the map) and a feature set's
+//    (FeatureSetLimits in proto/wire.h);
+//  - kMaxImageSideSetting: the most any of those settings may be set to;
+//  - a server caps its requests further: limits.max_image_side (server/server_options.h,
+//    4096 by default), for JPEGs and feature sets alike.
+inline constexpr int kMinImageSide = 16;
+inline constexpr int kDefaultMaxImageSide = 8192;
+inline constexpr int kMaxImageSideSetting = 65536;
+
 // One row per feature, kDescriptorSize columns, row-major so a row is contiguous.
 using DescriptorMatrix = Eigen::Matrix<float, Eigen::Dynamic, kDescriptorSize, Eigen::RowMajor>;
 
@@ -55,6 +67,10 @@ struct FeatureSet {
 
   int size() const { return static_cast<int>(keypoints.size()); }
 };
+
+// L2-normalises each row of `m` in place; an all-zero row stays zero. The one normalisation
+// of descriptors (the extractor's output, uint8 rows from the wire, the self-test query).
+void NormaliseRows(DescriptorMatrix* m);
 
 // Checks a feature set from an untrusted source: consistent counts, finite values, a
 // holistic descriptor that matches its grid.

@@ -73,15 +73,30 @@ void NormaliseCells(const HolisticGrid& g, std::vector<float>* h) {
 
 }  // namespace
 
+SettingTable HolisticSettings(HolisticOptions* o, const std::string& section) {
+  return {
+      Setting(section, "holistic_cols", &o->cols)
+          .Range(4, 64)
+          .Off(0)
+          .Help("holistic descriptor grid width in cells (0 = none); rows by aspect"),
+      Setting(section, "holistic_cell_pixels", &o->cell_pixels)
+          .Range(2, 64)
+          .Unit("pixels")
+          .Help("cell side on the holistic thumbnail"),
+      Setting(section, "holistic_bins", &o->bins)
+          .Range(4, 36)
+          .Help("gradient orientation bins over 360 degrees"),
+      Setting(section, "holistic_max_shift", &o->max_shift)
+          .Range(0, 63)
+          .Help("lateral tolerance when comparing them, cells (< holistic_cols)"),
+  };
+}
+
 Status HolisticOptions::Validate() const {
-  if (cols == 0) return Status::Ok();
-  if (cols < 4 || cols > 64) return InvalidArgument("holistic_cols must be 0 or in [4, 64]");
-  if (cell_pixels < 2 || cell_pixels > 64) {
-    return InvalidArgument("holistic_cell_pixels must be in [2, 64]");
-  }
-  if (bins < 4 || bins > 36) return InvalidArgument("holistic_bins must be in [4, 36]");
-  if (max_shift < 0 || max_shift >= cols) {
-    return InvalidArgument("holistic_max_shift must be in [0, holistic_cols)");
+  HolisticOptions copy = *this;
+  SCENELOC_RETURN_IF_ERROR(CheckSettings(HolisticSettings(&copy, "extractor")));
+  if (enabled() && max_shift >= cols) {
+    return InvalidArgument("holistic_max_shift must be < holistic_cols");
   }
   return Status::Ok();
 }

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "common/features/feature_set.h"
+#include "common/util/settings.h"
 #include "common/util/status.h"
 
 namespace sceneloc {
@@ -35,8 +36,13 @@ struct HolisticOptions {
   int max_shift = 2;
 
   bool enabled() const { return cols > 0; }
+  // The ranges of HolisticSettings, and max_shift < cols.
   Status Validate() const;
 };
+
+// The fields of `o` as settings: `section`.holistic_cols, ... (training files put them under
+// extractor:).
+SettingTable HolisticSettings(HolisticOptions* o, const std::string& section);
 
 // The grid for a frame of `width` x `height` pixels: options.cols wide, rows by aspect
 // (at least 2). Empty when holistic descriptors are disabled.

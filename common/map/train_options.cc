@@ -1,82 +1,73 @@
 #include "common/map/train_options.h"
 
-#include <cmath>
-#include <sstream>
-#include <string>
-
 namespace sceneloc {
-namespace {
 
-std::string Format(double value) {
-  std::ostringstream out;
-  out << value;
-  return out.str();
+SettingTable TrainSettings(TrainOptions* o) {
+  SettingTable t = ExtractorSettings(&o->extractor, "extractor");
+  const SettingTable own = {
+      Setting("tracking", "distance_threshold", &o->track_distance_threshold)
+          .Range(1e-6, 2)
+          .Help("t: largest local descriptor distance for a link (paper: 0.6)"),
+      Setting("tracking", "ransac_threshold", &o->ransac_threshold)
+          .Range(1e-5, 0.1)
+          .Help("epipolar inlier distance, fraction of the frame's long side (2 px at 480)"),
+      Setting("tracking", "ransac_confidence", &o->ransac_confidence).Range(0.5, 0.999999),
+      Setting("tracking", "min_links_per_pair", &o->min_links_per_pair)
+          .Range(8, 100000)
+          .Help("fewer links than this between two images are not trusted"),
+      Setting("tracking", "min_track_length", &o->min_track_length)
+          .Range(1, 1000)
+          .Help("images a track must span to become a landmark (1 = every feature)"),
+      Setting("tracking", "min_landmarks_per_image", &o->min_landmarks_per_image)
+          .Range(0, 100000)
+          .Help("top up images with fewer candidates with single-view ones (0 = off)"),
+      Setting("landmarks", "local_var_floor", &o->local_var_floor)
+          .Range(1e-9, 4)
+          .Help("sigma^2_min of the local descriptor (measured: docs/results.md)"),
+      Setting("landmarks", "context_var_floor", &o->context_var_floor)
+          .Range(1e-9, 4)
+          .Help("sigma^2_min of each context histogram"),
+      Setting("landmarks", "distance_sd_floor", &o->distance_sd_floor)
+          .Range(1e-5, 1)
+          .Help("neighbour distance sd floor, fraction of the long side (20 px at 480)"),
+      Setting("landmarks", "angle_var_floor", &o->angle_var_floor)
+          .Range(1e-9, 40)
+          .Unit("radians^2"),
+      Setting("landmarks", "max_neighbours", &o->max_neighbours)
+          .Range(0, 256)
+          .Help("co-occurring neighbours kept per landmark, nearest first"),
+      Setting("selection", "quality_s_min", &o->quality_s_min)
+          .Range(1e-6, 0.999999)
+          .Help("S_min used by the quality Q (eq. 4)"),
+      Setting("selection", "quality_fp_prior", &o->quality_fp_prior)
+          .Range(0, 1e9)
+          .Help("Q = TP / (prior + FP): the zero-denominator rule"),
+      Setting("selection", "eta", &o->eta)
+          .Range(0, 1000000)
+          .Help("landmarks per tour image (0 = keep all with Q > q_min); measured"),
+      Setting("selection", "q_min", &o->q_min).Range(0, 1e9).Help("paper: 0.01"),
+      Setting("calibration", "tolerance", &o->tolerance)
+          .Range(0, 100)
+          .Unit("frames")
+          .Help("confidence = P(answer within this many frames of the truth)"),
+      Setting("calibration", "confidence_temperature", &o->confidence_temperature)
+          .Range(1e-3, 100)
+          .Help("the posterior's temperature (common/matching/confidence.h); measured"),
+      Setting("calibration", "map_evidence_slope", &o->map_evidence_slope)
+          .Range(1e-3, 100)
+          .Help("P(on the route) logistic's slope; measured"),
+      Setting("calibration", "map_evidence_offset", &o->map_evidence_offset)
+          .Range(-100, 100)
+          .Help("and its offset; measured"),
+  };
+  t.insert(t.end(), own.begin(), own.end());
+  return t;
 }
-
-// Checks lo < value <= hi (or lo < value < hi when hi_open). NaN and infinities fail.
-Status CheckOpenRange(const char* name, double value, double lo, double hi, bool hi_open) {
-  const bool ok = std::isfinite(value) && value > lo && (hi_open ? value < hi : value <= hi);
-  if (ok) return Status::Ok();
-  return InvalidArgument(std::string(name) + " must be in (" + Format(lo) + ", " + Format(hi) +
-                         (hi_open ? ")" : "]") + ", got " + Format(value));
-}
-
-// Checks value > 0 (finite).
-Status CheckPositive(const char* name, double value) {
-  if (std::isfinite(value) && value > 0.0) return Status::Ok();
-  return InvalidArgument(std::string(name) + " must be > 0, got " + Format(value));
-}
-
-// Checks value >= min (finite).
-Status CheckAtLeast(const char* name, double value, double min) {
-  if (std::isfinite(value) && value >= min) return Status::Ok();
-  return InvalidArgument(std::string(name) + " must be >= " + Format(min) + ", got " +
-                         Format(value));
-}
-
-// The extractor names its fields bare ("working_size"); here they are one level down.
-Status ValidateExtractor(const ExtractorOptions& extractor) {
-  Status status = extractor.Validate();
-  if (status.ok()) return status;
-  return Status(status.code(), "extractor." + status.message());
-}
-
-}  // namespace
 
 Status TrainOptions::Validate() const {
-  SCENELOC_RETURN_IF_ERROR(ValidateExtractor(extractor));
-  SCENELOC_RETURN_IF_ERROR(
-      CheckOpenRange("track_distance_threshold", track_distance_threshold, 0.0, 2.0, false));
-  SCENELOC_RETURN_IF_ERROR(CheckOpenRange("ransac_threshold", ransac_threshold, 0.0, 0.1, false));
-  SCENELOC_RETURN_IF_ERROR(
-      CheckOpenRange("ransac_confidence", ransac_confidence, 0.0, 1.0, /*hi_open=*/true));
-  SCENELOC_RETURN_IF_ERROR(CheckAtLeast("min_links_per_pair", min_links_per_pair, 8));
-  SCENELOC_RETURN_IF_ERROR(CheckAtLeast("min_track_length", min_track_length, 1));
-  SCENELOC_RETURN_IF_ERROR(CheckAtLeast("min_landmarks_per_image", min_landmarks_per_image, 0));
-  SCENELOC_RETURN_IF_ERROR(CheckPositive("local_var_floor", local_var_floor));
-  SCENELOC_RETURN_IF_ERROR(CheckPositive("context_var_floor", context_var_floor));
-  SCENELOC_RETURN_IF_ERROR(CheckOpenRange("distance_sd_floor", distance_sd_floor, 0.0, 1.0, false));
-  SCENELOC_RETURN_IF_ERROR(CheckPositive("angle_var_floor", angle_var_floor));
-  SCENELOC_RETURN_IF_ERROR(
-      CheckOpenRange("quality_s_min", quality_s_min, 0.0, 1.0, /*hi_open=*/true));
-  SCENELOC_RETURN_IF_ERROR(CheckAtLeast("quality_fp_prior", quality_fp_prior, 0.0));
-  SCENELOC_RETURN_IF_ERROR(CheckAtLeast("eta", eta, 0));
-  SCENELOC_RETURN_IF_ERROR(CheckAtLeast("q_min", q_min, 0.0));
-  if (tolerance < 0 || tolerance > 100) {
-    return InvalidArgument("tolerance must be in [0, 100], got " + std::to_string(tolerance));
-  }
-  SCENELOC_RETURN_IF_ERROR(
-      CheckOpenRange("confidence_temperature", confidence_temperature, 0.0, 100.0, false));
-  SCENELOC_RETURN_IF_ERROR(
-      CheckOpenRange("map_evidence_slope", map_evidence_slope, 0.0, 100.0, false));
-  if (!(std::isfinite(map_evidence_offset) && std::abs(map_evidence_offset) <= 100)) {
-    return InvalidArgument("map_evidence_offset must be in [-100, 100]");
-  }
-  if (max_neighbours < 0 || max_neighbours > 256) {
-    return InvalidArgument("max_neighbours must be in [0, 256], got " +
-                           std::to_string(max_neighbours));
-  }
-  return Status::Ok();
+  TrainOptions copy = *this;
+  SCENELOC_RETURN_IF_ERROR(CheckSettings(TrainSettings(&copy)));
+  return extractor.holistic.Validate();
 }
 
 }  // namespace sceneloc

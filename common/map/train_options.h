@@ -75,7 +75,12 @@ struct TrainOptions {
   double map_evidence_slope = 1.6;
   double map_evidence_offset = 0.6;
 
+  // The ranges of TrainSettings. A map file's stored options go through it on load.
   Status Validate() const;
 };
+
+// The training settings file's fields (configs/train.yaml), bound to `o`: extractor:,
+// tracking:, landmarks:, selection:, calibration:.
+SettingTable TrainSettings(TrainOptions* o);
 
 }  // namespace sceneloc

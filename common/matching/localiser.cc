@@ -18,46 +18,6 @@ const char* DecisionName(Decision decision) {
   return decision == Decision::kLocalised ? "LOCALISED" : "UNKNOWN";
 }
 
-Status MatchOptions::Validate() const {
-  if (!(s_min > 0.0 && s_min <= 1.0)) return InvalidArgument("s_min must be in (0, 1]");
-  if (max_neighbours < 0) return InvalidArgument("max_neighbours must be >= 0 (0 = all)");
-  if (max_matches_per_landmark < 0) {
-    return InvalidArgument("max_matches_per_landmark must be >= 0 (0 = all)");
-  }
-  if (top_k < 1 || top_k > 1000) return InvalidArgument("top_k must be in [1, 1000]");
-  if (verify_top < 0 || verify_top > 1000)
-    return InvalidArgument("verify_top must be in [0, 1000]");
-  if (!(verify_angle_tolerance >= 0.0 && verify_angle_tolerance <= 180.0)) {
-    return InvalidArgument("verify_angle_tolerance must be in [0, 180]");
-  }
-  if (confidence_model != "calibrated" && confidence_model != "paper") {
-    return InvalidArgument("confidence_model must be 'calibrated' or 'paper', got '" +
-                           confidence_model + "'");
-  }
-  if (!(min_confidence >= 0.0 && min_confidence <= 1.0)) {
-    return InvalidArgument("min_confidence must be in [0, 1]");
-  }
-  if (!(verify_chance_inliers >= 0.0 && verify_chance_inliers <= 1000.0)) {
-    return InvalidArgument("verify_chance_inliers must be in [0, 1000]");
-  }
-  if (!(verify_weight >= 0.0 && verify_weight <= 100.0)) {
-    return InvalidArgument("verify_weight must be in [0, 100]");
-  }
-  if (holistic_top < 0 || holistic_top > 1000) {
-    return InvalidArgument("holistic_top must be in [0, 1000]");
-  }
-  if (!(verify_ransac_threshold > 0.0 && verify_ransac_threshold <= 0.1)) {
-    return InvalidArgument("verify_ransac_threshold must be in (0, 0.1]");
-  }
-  if (verify_ransac_iterations < 1) return InvalidArgument("verify_ransac_iterations must be >= 1");
-  if (!(verify_scale_sigma >= 0.0)) return InvalidArgument("verify_scale_sigma must be >= 0");
-  if (!(size_exponent >= 0.0 && size_exponent <= 2.0)) {
-    return InvalidArgument("size_exponent must be in [0, 2]");
-  }
-  if (Status s = sequence.Validate(); !s.ok()) return InvalidArgument("sequence." + s.message());
-  return Status::Ok();
-}
-
 namespace {
 
 // DeadlineExceeded once `deadline` has passed, naming the stage just finished and what each

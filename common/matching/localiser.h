@@ -92,8 +92,13 @@ struct MatchOptions {
   // DeadlineExceeded naming the stage and the time each stage took.
   std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max();
 
+  // The ranges and choices of MatchSettings.
   Status Validate() const;
 };
+
+// The matching settings file's fields (configs/match.yaml), bound to `o`: matching: and
+// sequence: (match_settings.cc).
+SettingTable MatchSettings(MatchOptions* o);
 
 struct RankedLocation {
   int index = 0;           // tour location (image index in the map)

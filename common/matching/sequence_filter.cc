@@ -9,14 +9,6 @@
 namespace sceneloc {
 namespace {
 
-Status CheckProbability(const char* name, double value, bool allow_zero) {
-  if (!std::isfinite(value) || value > 1 || value < 0 || (!allow_zero && value == 0)) {
-    return InvalidArgument(std::string(name) + " must be in " + (allow_zero ? "[0, 1]" : "(0, 1]") +
-                           ", got " + std::to_string(value));
-  }
-  return Status::Ok();
-}
-
 // The stationary share of off-map of the enter/leave chain: where a fresh session starts.
 double StationaryOffMap(const SequenceOptions& o) {
   return o.leave + o.enter > 0 ? o.leave / (o.leave + o.enter) : 0;
@@ -32,23 +24,6 @@ void Normalise(std::vector<float>* v) {
 }
 
 }  // namespace
-
-Status SequenceOptions::Validate() const {
-  if (max_forward < -1 || max_forward > 1000) {
-    return InvalidArgument("max_forward must be -1 (from the map) or in [0, 1000], got " +
-                           std::to_string(max_forward));
-  }
-  if (max_backward < -1 || max_backward > 1000) {
-    return InvalidArgument("max_backward must be -1 (from the map) or in [0, 1000], got " +
-                           std::to_string(max_backward));
-  }
-  SCENELOC_RETURN_IF_ERROR(CheckProbability("backward_weight", backward_weight, true));
-  SCENELOC_RETURN_IF_ERROR(CheckProbability("jump", jump, true));
-  SCENELOC_RETURN_IF_ERROR(CheckProbability("leave", leave, true));
-  SCENELOC_RETURN_IF_ERROR(CheckProbability("enter", enter, true));
-  SCENELOC_RETURN_IF_ERROR(CheckProbability("evidence_weight", evidence_weight, false));
-  return CheckProbability("min_confidence", min_confidence, true);
-}
 
 FrameEvidence EvidenceOf(const LocaliseResult& result, const Map& map) {
   FrameEvidence e;

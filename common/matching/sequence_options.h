@@ -2,6 +2,7 @@
 // settings (MatchOptions::sequence; `sequence:` in configs/match.yaml).
 #pragma once
 
+#include "common/util/settings.h"
 #include "common/util/status.h"
 
 namespace sceneloc {
@@ -26,7 +27,11 @@ struct SequenceOptions {
   // A filtered answer whose mass within the tolerance is below this is UNKNOWN.
   double min_confidence = 0.8;
 
+  // The ranges of SequenceSettings.
   Status Validate() const;
 };
+
+// The `sequence:` section of the matching settings, bound to `o` (match_settings.cc).
+SettingTable SequenceSettings(SequenceOptions* o);
 
 }  // namespace sceneloc

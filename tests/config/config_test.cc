@@ -31,7 +31,8 @@ TEST(ConfigTest, RejectsUnknownKeysWrongTypesAndRanges) {
   s = ParseTrainOptions("selection:\n  eta: 2.5\n", "t", &o);
   EXPECT_NE(s.message().find("selection.eta must be an integer"), std::string::npos);
   s = ParseTrainOptions("extractor:\n  working_size: 3\n", "t", &o);
-  EXPECT_NE(s.message().find("extractor.working_size = 3 is out of range"), std::string::npos);
+  EXPECT_NE(s.message().find("extractor.working_size = 3 is outside [64, 4096] pixels"),
+            std::string::npos);
   s = ParseTrainOptions("[1, 2]", "t", &o);
   EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
   EXPECT_EQ(o.extractor.max_features, before.extractor.max_features);
@@ -49,10 +50,12 @@ TEST(ConfigTest, MatchOptions) {
             StatusCode::kInvalidArgument);
   // The decision threshold is a probability; the confidence model one of two names.
   Status s = ParseMatchOptions("matching:\n  min_confidence: 1.5\n", "m", &o);
-  EXPECT_NE(s.message().find("matching.min_confidence = 1.5 is out of range"), std::string::npos)
+  EXPECT_NE(s.message().find("matching.min_confidence = 1.5 is outside [0, 1]"), std::string::npos)
       << s.message();
   s = ParseMatchOptions("matching:\n  confidence_model: bayes\n", "m", &o);
-  EXPECT_NE(s.message().find("confidence_model must be 'calibrated' or 'paper'"), std::string::npos)
+  EXPECT_NE(
+      s.message().find("matching.confidence_model = 'bayes' is not one of calibrated | paper"),
+      std::string::npos)
       << s.message();
   ASSERT_TRUE(
       ParseMatchOptions("matching:\n  confidence_model: paper\n  min_confidence: 0\n", "m", &o)
@@ -81,6 +84,45 @@ TEST(ConfigTest, ShippedFilesLoad) {
   MatchOptions m;
   ASSERT_TRUE(LoadMatchOptions(std::string(SCENELOC_CONFIGS_DIR) + "/match.yaml", &m).ok());
   EXPECT_EQ(LoadTrainOptions("/nonexistent/train.yaml", &t).code(), StatusCode::kNotFound);
+}
+
+// The documented files in configs/ are exactly what the declarations print for the defaults:
+// every key, its default, its help and range. A setting added, renamed or re-defaulted
+// without regenerating them (sceneloc-train --print-config > configs/train.yaml,
+// sceneloc-eval --print-config > configs/match.yaml) fails here.
+TEST(ConfigTest, DocumentedConfigsMatchTheDeclarations) {
+  const auto read = [](const std::string& name) {
+    const StatusOr<std::string> text =
+        ReadSettingsFile(std::string(SCENELOC_CONFIGS_DIR) + "/" + name);
+    EXPECT_TRUE(text.ok()) << name;
+    return text.ok() ? *text : std::string();
+  };
+  EXPECT_EQ(read("train.yaml"), DocumentedTrainSettings());
+  EXPECT_EQ(read("match.yaml"), DocumentedMatchSettings());
+}
+
+// The documented text reads back to the options it was printed from.
+TEST(ConfigTest, DocumentedSettingsRoundTrip) {
+  TrainOptions t;
+  t.extractor.sigma = 2.5;
+  t.eta = 40;
+  TrainOptions t2;
+  ASSERT_TRUE(ParseTrainOptions(DocumentedTrainSettings(t), "doc", &t2).ok());
+  EXPECT_EQ(TrainOptionsToYaml(t2), TrainOptionsToYaml(t));
+  MatchOptions m;
+  m.confidence_model = "paper";
+  m.sequence.max_forward = 3;
+  MatchOptions m2;
+  ASSERT_TRUE(ParseMatchOptions(DocumentedMatchSettings(m), "doc", &m2).ok());
+  EXPECT_EQ(MatchOptionsToYaml(m2), MatchOptionsToYaml(m));
+}
+
+// The variant files beside them (the paper's settings) are valid.
+TEST(ConfigTest, PaperConfigsAreValid) {
+  TrainOptions t;
+  EXPECT_TRUE(LoadTrainOptions(std::string(SCENELOC_CONFIGS_DIR) + "/paper-train.yaml", &t).ok());
+  MatchOptions m;
+  EXPECT_TRUE(LoadMatchOptions(std::string(SCENELOC_CONFIGS_DIR) + "/paper-match.yaml", &m).ok());
 }
 
 }  // namespace

@@ -89,7 +89,7 @@ int LandmarkWithNeighbour(const Map& map) {
 std::vector<Breakage> Breakages() {
   return {
       {"InvalidOptions", [](Map* m) { m->options.ransac_confidence = 1.5; },
-       "training options: ransac_confidence must be in (0, 1)"},
+       "training options: tracking.ransac_confidence = 1.5 is outside [0.5, 0.999999]"},
       {"NoImages", [](Map* m) { m->image_names.clear(); }, "no tour images"},
       {"EmptyImageName", [](Map* m) { m->image_names[3].clear(); }, "image_names[3] is empty"},
       {"ZeroWidth", [](Map* m) { m->image_width = 0; }, "image size 0x270"},
@@ -173,7 +173,8 @@ struct BadOption {
 
 class TrainOptionsValidateTest : public ::testing::TestWithParam<BadOption> {};
 
-// Each out-of-range value is InvalidArgument naming the field and its allowed range.
+// Each out-of-range value is InvalidArgument naming the field as a settings file does
+// (section.key), its value and its declared range.
 TEST_P(TrainOptionsValidateTest, RejectsOutOfRange) {
   TrainOptions options;
   GetParam().apply(&options);
@@ -187,43 +188,44 @@ std::vector<BadOption> BadOptions() {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   return {
       {"WorkingSize", [](TrainOptions* o) { o->extractor.working_size = 20; },
-       "extractor.working_size must be in [64, 4096]"},
+       "extractor.working_size = 20 is outside [64, 4096] pixels"},
       {"HolisticBins", [](TrainOptions* o) { o->extractor.holistic.bins = 2; },
-       "extractor.holistic_bins must be in [4, 36]"},
+       "extractor.holistic_bins = 2 is outside [4, 36]"},
       {"TrackThresholdZero", [](TrainOptions* o) { o->track_distance_threshold = 0; },
-       "track_distance_threshold must be in (0, 2], got 0"},
+       "tracking.distance_threshold = 0 is outside [1e-06, 2]"},
       {"TrackThresholdAboveTwo", [](TrainOptions* o) { o->track_distance_threshold = 2.5; },
-       "track_distance_threshold must be in (0, 2], got 2.5"},
+       "tracking.distance_threshold = 2.5 is outside [1e-06, 2]"},
       {"TrackThresholdNaN", [nan](TrainOptions* o) { o->track_distance_threshold = nan; },
-       "track_distance_threshold must be in (0, 2]"},
+       "tracking.distance_threshold = nan is outside [1e-06, 2]"},
       {"RansacThreshold", [](TrainOptions* o) { o->ransac_threshold = 0; },
-       "ransac_threshold must be in (0, 0.1]"},
+       "tracking.ransac_threshold = 0 is outside [1e-05, 0.1]"},
       {"RansacConfidenceOne", [](TrainOptions* o) { o->ransac_confidence = 1; },
-       "ransac_confidence must be in (0, 1)"},
+       "tracking.ransac_confidence = "},
       {"RansacConfidenceZero", [](TrainOptions* o) { o->ransac_confidence = 0; },
-       "ransac_confidence must be in (0, 1)"},
+       "tracking.ransac_confidence = "},
       {"MinLinks", [](TrainOptions* o) { o->min_links_per_pair = 7; },
-       "min_links_per_pair must be >= 8, got 7"},
+       "tracking.min_links_per_pair = 7 is outside [8, 100000]"},
       {"LocalVarFloor", [](TrainOptions* o) { o->local_var_floor = 0; },
-       "local_var_floor must be > 0"},
+       "landmarks.local_var_floor = 0 is outside [1e-09, 4]"},
       {"ContextVarFloor", [](TrainOptions* o) { o->context_var_floor = -1; },
-       "context_var_floor must be > 0"},
+       "landmarks.context_var_floor = -1 is outside [1e-09, 4]"},
       {"DistanceSdFloor", [](TrainOptions* o) { o->distance_sd_floor = 0; },
-       "distance_sd_floor must be in (0, 1]"},
+       "landmarks.distance_sd_floor = 0 is outside [1e-05, 1]"},
       {"AngleVarFloor", [nan](TrainOptions* o) { o->angle_var_floor = nan; },
-       "angle_var_floor must be > 0"},
+       "landmarks.angle_var_floor = nan is outside [1e-09, 40] radians^2"},
       {"QualitySMinOne", [](TrainOptions* o) { o->quality_s_min = 1; },
-       "quality_s_min must be in (0, 1)"},
+       "selection.quality_s_min = "},
       {"QualitySMinZero", [](TrainOptions* o) { o->quality_s_min = 0; },
-       "quality_s_min must be in (0, 1)"},
+       "selection.quality_s_min = "},
       {"FpPrior", [](TrainOptions* o) { o->quality_fp_prior = -0.1; },
-       "quality_fp_prior must be >= 0"},
-      {"Eta", [](TrainOptions* o) { o->eta = -1; }, "eta must be >= 0, got -1"},
-      {"QMin", [](TrainOptions* o) { o->q_min = -0.01; }, "q_min must be >= 0"},
+       "selection.quality_fp_prior = -0.1 is outside [0, 1000000000]"},
+      {"Eta", [](TrainOptions* o) { o->eta = -1; }, "selection.eta = -1 is outside [0, 1000000]"},
+      {"QMin", [](TrainOptions* o) { o->q_min = -0.01; },
+       "selection.q_min = -0.01 is outside [0, 1000000000]"},
       {"MaxNeighboursNegative", [](TrainOptions* o) { o->max_neighbours = -1; },
-       "max_neighbours must be in [0, 256], got -1"},
+       "landmarks.max_neighbours = -1 is outside [0, 256]"},
       {"MaxNeighboursLarge", [](TrainOptions* o) { o->max_neighbours = 257; },
-       "max_neighbours must be in [0, 256], got 257"},
+       "landmarks.max_neighbours = 257 is outside [0, 256]"},
   };
 }
 

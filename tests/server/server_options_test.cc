@@ -5,6 +5,8 @@
 
 #include <algorithm>
 
+#include "common/config/settings_table.h"
+
 namespace sceneloc {
 namespace {
 
@@ -95,6 +97,27 @@ TEST(ServerOptionsTest, FlagsOverrideWithTheSameChecks) {
   EXPECT_EQ(options.limits.max_map_bytes, 1048576);
   EXPECT_FALSE(ApplyServerFlag(Flag("max-map-bytes"), "10", &options).ok());
   EXPECT_GE(matching, 10);
+}
+
+// configs/server.yaml is exactly what the declarations print for the defaults
+// (regenerate: sceneloc-server --print-config > configs/server.yaml).
+TEST(ServerOptionsTest, DocumentedConfigMatchesTheDeclarations) {
+  const StatusOr<std::string> text = ReadSettingsFile(SCENELOC_CONFIGS_DIR "/server.yaml");
+  ASSERT_TRUE(text.ok());
+  EXPECT_EQ(*text, DocumentedServerSettings());
+}
+
+// Every flag's help names what it accepts, from the same declaration as the file's checks.
+TEST(ServerOptionsTest, FlagHelpNamesTheRange) {
+  const std::vector<ServerFlag> flags = ServerFlags();
+  const auto threads = std::find_if(flags.begin(), flags.end(),
+                                    [](const ServerFlag& f) { return f.flag == "threads"; });
+  ASSERT_NE(threads, flags.end());
+  EXPECT_NE(threads->help.find("[1, 256]"), std::string::npos) << threads->help;
+  const auto level = std::find_if(flags.begin(), flags.end(),
+                                  [](const ServerFlag& f) { return f.flag == "log-level"; });
+  ASSERT_NE(level, flags.end());
+  EXPECT_NE(level->help.find("trace | debug"), std::string::npos) << level->help;
 }
 
 }  // namespace

@@ -11,7 +11,7 @@ from .wire import pb
 
 # Session names: 1..128 printable ASCII characters (proto/wire.h CheckSessionName).
 _MAX_SESSION_NAME = 128
-# Map names are plain file stems (server/request_handler.cc IsPlainName).
+# Map names are plain file stems (common/map/map_name.h IsValidMapName).
 _MAX_MAP_NAME = 255
 
 

@@ -1,0 +1,117 @@
+// The matching settings, declared once (common/util/settings.h): configs/match.yaml, the
+// server's matching: and sequence: sections and their flags, and Validate().
+#include <string>
+
+#include "common/matching/localiser.h"
+#include "common/matching/sequence_options.h"
+
+namespace sceneloc {
+
+SettingTable MatchSettings(MatchOptions* o) {
+  SettingTable t = {
+      Setting("matching", "s_min", &o->s_min)
+          .Range(1e-6, 1)
+          .Help("drop feature-landmark pairs with S_D below this (paper: 0.3)"),
+      Setting("matching", "use_neighbourhood", &o->use_neighbourhood)
+          .Help("S = S_D * S_N (paper); false = S_D alone"),
+      Setting("matching", "include_centre_term", &o->include_centre_term)
+          .Help("eq. 2 denominator from n = 0, as printed"),
+      Setting("matching", "max_neighbours", &o->max_neighbours)
+          .Range(0, 256)
+          .Help("neighbours walked per landmark (0 = all stored)"),
+      Setting("matching", "max_matches_per_landmark", &o->max_matches_per_landmark)
+          .Range(0, 100000)
+          .Help("best query features kept per landmark (0 = all): a work budget"),
+      Setting("matching", "distinctiveness", &o->distinctiveness)
+          .Help("weight pairs by p(g|f) (eq. 4's posterior); off = eq. 3"),
+      Setting("matching", "size_exponent", &o->size_exponent)
+          .Range(0, 2)
+          .Help("L(l) divides by |G_l|^size_exponent (1 = eq. 3)"),
+      Setting("matching", "verify_top", &o->verify_top)
+          .Range(0, 1000)
+          .Help("verify the best by L (0 and use_holistic false = paper: by L only)"),
+      Setting("matching", "use_holistic", &o->use_holistic)
+          .Help("holistic evidence: candidates and fusion (false = local features only)"),
+      Setting("matching", "holistic_top", &o->holistic_top)
+          .Range(0, 1000)
+          .Help("also verify the tour images most alike as a whole (0 = none)"),
+      Setting("matching", "verify_ransac_threshold", &o->verify_ransac_threshold)
+          .Range(1e-5, 0.1)
+          .Help("RANSAC inlier distance, fraction of the long side (3 px at 480)"),
+      Setting("matching", "verify_ransac_iterations", &o->verify_ransac_iterations)
+          .Range(1, 100000),
+      Setting("matching", "verify_angle_tolerance", &o->verify_angle_tolerance)
+          .Range(0, 180)
+          .Unit("degrees")
+          .Help("drop correspondences whose orientations differ more (0 = off)"),
+      Setting("matching", "verify_scale_sigma", &o->verify_scale_sigma)
+          .Range(0, 10)
+          .Help("weight inliers by keypoint-scale agreement (0 = off)"),
+      Setting("matching", "verify_chance_inliers", &o->verify_chance_inliers)
+          .Range(0, 1000)
+          .Help("weighted inliers a wrong candidate reaches by chance: only more count"),
+      Setting("matching", "verify_weight", &o->verify_weight)
+          .Range(0, 100)
+          .Help("holistic z-score units per inlier above that"),
+      Setting("matching", "confidence_model", &o->confidence_model)
+          .Choices({"calibrated", "paper"})
+          .Help("P(answer within the map's tolerance); paper = L1/(L1+L2)"),
+      Setting("matching", "min_confidence", &o->min_confidence)
+          .Range(0, 1)
+          .Help("answers below are UNKNOWN (measured: docs/results.md)"),
+      Setting("matching", "top_k", &o->top_k).Range(1, 1000).Help("ranked locations per answer"),
+  };
+  for (SettingField& f : SequenceSettings(&o->sequence)) t.push_back(std::move(f));
+  return t;
+}
+
+SettingTable SequenceSettings(SequenceOptions* o) {
+  return {
+      Setting("sequence", "max_forward", &o->max_forward)
+          .Range(0, 1000)
+          .Off(-1)
+          .Help("motion band ahead, locations per frame (-1 = from the map)")
+          .Flag("sequence-max-forward"),
+      Setting("sequence", "max_backward", &o->max_backward)
+          .Range(0, 1000)
+          .Off(-1)
+          .Help("and behind (-1 = from the map)")
+          .Flag("sequence-max-backward"),
+      Setting("sequence", "backward_weight", &o->backward_weight)
+          .Range(0, 1)
+          .Help("each backward step against each forward one")
+          .Flag("sequence-backward-weight"),
+      Setting("sequence", "jump", &o->jump)
+          .Range(0, 1)
+          .Help("kidnap floor: share of the belief spread over every location per frame")
+          .Flag("sequence-jump"),
+      Setting("sequence", "leave", &o->leave)
+          .Range(0, 1)
+          .Help("per frame, P(leaving the route)")
+          .Flag("sequence-leave"),
+      Setting("sequence", "enter", &o->enter)
+          .Range(0, 1)
+          .Help("per frame, P(coming back onto it, anywhere)")
+          .Flag("sequence-enter"),
+      Setting("sequence", "evidence_weight", &o->evidence_weight)
+          .Range(1e-6, 1)
+          .Help("exponent on each frame's likelihood (1 = frames independent)")
+          .Flag("sequence-evidence-weight"),
+      Setting("sequence", "min_confidence", &o->min_confidence)
+          .Range(0, 1)
+          .Help("session answers below this are UNKNOWN")
+          .Flag("sequence-min-confidence"),
+  };
+}
+
+Status MatchOptions::Validate() const {
+  MatchOptions copy = *this;
+  return CheckSettings(MatchSettings(&copy));
+}
+
+Status SequenceOptions::Validate() const {
+  SequenceOptions copy = *this;
+  return CheckSettings(SequenceSettings(&copy));
+}
+
+}  // namespace sceneloc
