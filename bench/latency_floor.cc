@@ -129,6 +129,164 @@ double Quantile(std::vector<double> v, double q) {
   return v[std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size())))];
 }
 
+// Per frame: its header size, target, working frame and features, made once.
+struct Frame {
+  int width = 0, height = 0;
+  ExtractionTarget target;
+  cv::Mat gray;
+  FeatureSet features;
+};
+
+std::vector<Frame> MakeFrames(const Input& in, const FeatureExtractor& extractor) {
+  std::vector<Frame> f(in.jpegs.size());
+  for (size_t i = 0; i < f.size(); ++i) {
+    const cv::Mat colour = Must(DecodeImage(in.jpegs[i], 8192));
+    f[i].width = colour.cols;
+    f[i].height = colour.rows;
+    f[i].target = in.map.QueryTarget(colour.cols, colour.rows);
+    f[i].gray = FullDecode(in.jpegs[i], f[i].target);
+    f[i].features = Must(extractor.Extract(f[i].gray, f[i].target));
+  }
+  return f;
+}
+
+// What every stage works on: the input, its frames, the extractor and the pools (made
+// last, so no pool thread exists while the frames are made).
+struct Setup {
+  explicit Setup(Input input)
+      : in(std::move(input)),
+        extractor(FeatureExtractor::Create(in.map.options.extractor)),
+        f(MakeFrames(in, *extractor)) {}
+
+  Input in;
+  std::unique_ptr<FeatureExtractor> extractor;
+  std::vector<Frame> f;
+  ThreadPool one{1}, two{2};
+  MatchOptions match;
+};
+
+// The stages measured, the floor first. Stages that use the 2-thread pool for OpenCV's
+// loops say so ("[pool]"); the switch happens around them (OpenCvOnThreadPool) so every
+// other stage runs OpenCV on one thread.
+std::vector<Stage> MakeStages(Setup& s) {
+  const ExtractorOptions& eo = s.in.map.options.extractor;
+  auto localise = [&s](size_t i, ThreadPool* pool) {
+    Must(Localise(s.f[i].features, s.in.map, s.match, pool));
+  };
+  auto end_to_end = [&s](size_t i, ThreadPool* pool) {
+    const Frame& f = s.f[i];
+    const cv::Mat gray = ReducedDecode(s.in.jpegs[i], f.target, f.width, f.height);
+    const FeatureSet features = Must(s.extractor->Extract(gray, f.target));
+    Must(Localise(features, s.in.map, s.match, pool));
+  };
+  return {
+      {"floor: SIFT detectAndCompute, 1 thread",
+       [&s, &eo](size_t i) {
+         auto sift = cv::SIFT::create(eo.max_features, 3, eo.contrast_threshold, eo.edge_threshold,
+                                      eo.sigma);
+         std::vector<cv::KeyPoint> k;
+         cv::Mat d;
+         sift->detectAndCompute(s.f[i].gray, cv::noArray(), k, d);
+       },
+       {}},
+      {"decode: colour, grey, resize (before)",
+       [&s](size_t i) { FullDecode(s.in.jpegs[i], s.f[i].target); },
+       {}},
+      {"decode: reduced grey, resize",
+       [&s](size_t i) { ReducedDecode(s.in.jpegs[i], s.f[i].target, s.f[i].width, s.f[i].height); },
+       {}},
+      {"extract: two passes (before), 1 thread",
+       [&s, &eo](size_t i) { TwoPassExtract(s.f[i].gray, eo); },
+       {}},
+      {"extract: 1 thread",
+       [&s](size_t i) { Must(s.extractor->Extract(s.f[i].gray, s.f[i].target)); },
+       {}},
+      {"extract: pool of 2 [pool]",
+       [&s](size_t i) { Must(s.extractor->Extract(s.f[i].gray, s.f[i].target)); },
+       {}},
+      {"localise: 1 thread", [&s, localise](size_t i) { localise(i, &s.one); }, {}},
+      {"localise: pool of 2", [&s, localise](size_t i) { localise(i, &s.two); }, {}},
+      {"end-to-end: 1 thread", [&s, end_to_end](size_t i) { end_to_end(i, &s.one); }, {}},
+      {"end-to-end: pool of 2 [pool]", [&s, end_to_end](size_t i) { end_to_end(i, &s.two); }, {}},
+  };
+}
+
+// Runs every stage on every frame, `rounds` times, recording each run's milliseconds.
+void Measure(Setup& s, int rounds, std::vector<Stage>* stages) {
+  for (int r = 0; r < rounds; ++r) {
+    for (size_t i = 0; i < s.f.size(); ++i) {
+      for (Stage& stage : *stages) {  // every stage on the same frame in turn: shared noise
+        const bool pooled = stage.name.find("[pool]") != std::string::npos;
+        std::unique_ptr<OpenCvOnThreadPool> on_pool;
+        if (pooled) on_pool = std::make_unique<OpenCvOnThreadPool>(&s.two);
+        const auto start = std::chrono::steady_clock::now();
+        stage.run(i);
+        stage.ms.push_back(
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+                .count());
+      }
+    }
+  }
+}
+
+// The answers of both decodes, against the tour image of the query's own name (Gardens
+// Point and the corridor name a query after its place): the reduced decode must not
+// cost accuracy. Also localise's own stages, one thread.
+struct Agreement {
+  int truths = 0, right_full = 0, right_reduced = 0, same = 0;
+  std::vector<double> stage_ms[5];
+};
+
+Agreement CompareDecodes(Setup& s) {
+  Agreement g;
+  for (size_t i = 0; i < s.f.size(); ++i) {
+    const Frame& f = s.f[i];
+    const cv::Mat reduced = ReducedDecode(s.in.jpegs[i], f.target, f.width, f.height);
+    const auto a = Must(Localise(f.features, s.in.map, s.match, nullptr));
+    const auto b =
+        Must(Localise(Must(s.extractor->Extract(reduced, f.target)), s.in.map, s.match, nullptr));
+    const StageTimings& st = a.timings;
+    const double ms[5] = {st.descriptor_ms, st.neighbourhood_ms, st.likelihood_ms, st.holistic_ms,
+                          st.verify_ms};
+    for (int k = 0; k < 5; ++k) g.stage_ms[k].push_back(ms[k]);
+    if (a.ranked.empty() || b.ranked.empty()) continue;
+    g.same += a.ranked[0].index == b.ranked[0].index;
+    const auto& names = s.in.map.image_names;
+    const auto truth = std::find(names.begin(), names.end(), s.in.names[i]);
+    if (truth == names.end()) continue;
+    const int t = static_cast<int>(truth - names.begin());
+    ++g.truths;
+    g.right_full += std::abs(a.ranked[0].index - t) <= 2;
+    g.right_reduced += std::abs(b.ranked[0].index - t) <= 2;
+  }
+  return g;
+}
+
+void PrintResults(const Setup& s, int rounds, const std::vector<Stage>& stages,
+                  const Agreement& g) {
+  const double floor = Quantile(stages[0].ms, 0.5);
+  std::printf("%zu frames of %dx%d, working frame %dx%d, %d landmarks, %d rounds\n", s.f.size(),
+              s.f[0].width, s.f[0].height, s.f[0].target.width, s.f[0].target.height,
+              s.in.map.num_landmarks(), rounds);
+  std::printf("%-42s %9s %9s %9s\n", "stage", "p50 ms", "p99 ms", "p50/floor");
+  for (const Stage& stage : stages) {
+    const double p50 = Quantile(stage.ms, 0.5);
+    std::printf("%-42s %9.2f %9.2f %9.2f\n", stage.name.c_str(), p50, Quantile(stage.ms, 0.99),
+                p50 / floor);
+  }
+  const char* stage_names[5] = {"descriptor (S_D)", "neighbourhood (S_N)", "likelihood", "holistic",
+                                "verification"};
+  std::printf("localise stages, 1 thread, p50 ms:");
+  for (int k = 0; k < 5; ++k) std::printf(" %s %.2f", stage_names[k], Quantile(g.stage_ms[k], 0.5));
+  std::printf("\n");
+  std::printf("answers: reduced and full decode agree on %d of %zu frames", g.same, s.f.size());
+  if (g.truths > 0) {
+    std::printf("; within 2 of the same-named tour image: full %d, reduced %d of %d", g.right_full,
+                g.right_reduced, g.truths);
+  }
+  std::printf("\n");
+}
+
 }  // namespace
 }  // namespace sceneloc
 
@@ -149,125 +307,10 @@ int main(int argc, char** argv) {
   Input in = map_path.empty() ? Synthetic(frames) : Real(map_path, queries);
   if (in.jpegs.empty()) Fail("no query frames");
   if (static_cast<int>(in.jpegs.size()) > frames) in.jpegs.resize(static_cast<size_t>(frames));
-  const ExtractorOptions& eo = in.map.options.extractor;
-  const auto extractor = FeatureExtractor::Create(eo);
-
-  // Per frame: its header size, target, working frame and features, made once.
-  struct Frame {
-    int width = 0, height = 0;
-    ExtractionTarget target;
-    cv::Mat gray;
-    FeatureSet features;
-  };
-  std::vector<Frame> f(in.jpegs.size());
-  for (size_t i = 0; i < f.size(); ++i) {
-    const cv::Mat colour = Must(DecodeImage(in.jpegs[i], 8192));
-    f[i].width = colour.cols;
-    f[i].height = colour.rows;
-    f[i].target = in.map.QueryTarget(colour.cols, colour.rows);
-    f[i].gray = FullDecode(in.jpegs[i], f[i].target);
-    f[i].features = Must(extractor->Extract(f[i].gray, f[i].target));
-  }
-  ThreadPool one(1), two(2);
-  const MatchOptions match;
-  auto localise = [&](size_t i, ThreadPool* pool) {
-    Must(Localise(f[i].features, in.map, match, pool));
-  };
-  auto end_to_end = [&](size_t i, ThreadPool* pool) {
-    const cv::Mat gray = ReducedDecode(in.jpegs[i], f[i].target, f[i].width, f[i].height);
-    const FeatureSet features = Must(extractor->Extract(gray, f[i].target));
-    Must(Localise(features, in.map, match, pool));
-  };
-  // Stages that use the 2-thread pool for OpenCV's loops say so; the switch happens around
-  // them (OpenCvOnThreadPool) so every other stage runs OpenCV on one thread.
-  std::vector<Stage> stages = {
-      {"floor: SIFT detectAndCompute, 1 thread",
-       [&](size_t i) {
-         auto sift = cv::SIFT::create(eo.max_features, 3, eo.contrast_threshold, eo.edge_threshold,
-                                      eo.sigma);
-         std::vector<cv::KeyPoint> k;
-         cv::Mat d;
-         sift->detectAndCompute(f[i].gray, cv::noArray(), k, d);
-       },
-       {}},
-      {"decode: colour, grey, resize (before)",
-       [&](size_t i) { FullDecode(in.jpegs[i], f[i].target); },
-       {}},
-      {"decode: reduced grey, resize",
-       [&](size_t i) { ReducedDecode(in.jpegs[i], f[i].target, f[i].width, f[i].height); },
-       {}},
-      {"extract: two passes (before), 1 thread",
-       [&](size_t i) { TwoPassExtract(f[i].gray, eo); },
-       {}},
-      {"extract: 1 thread",
-       [&](size_t i) { Must(extractor->Extract(f[i].gray, f[i].target)); },
-       {}},
-      {"extract: pool of 2 [pool]",
-       [&](size_t i) { Must(extractor->Extract(f[i].gray, f[i].target)); },
-       {}},
-      {"localise: 1 thread", [&](size_t i) { localise(i, &one); }, {}},
-      {"localise: pool of 2", [&](size_t i) { localise(i, &two); }, {}},
-      {"end-to-end: 1 thread", [&](size_t i) { end_to_end(i, &one); }, {}},
-      {"end-to-end: pool of 2 [pool]", [&](size_t i) { end_to_end(i, &two); }, {}},
-  };
-  for (int r = 0; r < rounds; ++r) {
-    for (size_t i = 0; i < f.size(); ++i) {
-      for (Stage& s : stages) {  // every stage on the same frame in turn: shared noise
-        const bool pooled = s.name.find("[pool]") != std::string::npos;
-        std::unique_ptr<OpenCvOnThreadPool> on_pool;
-        if (pooled) on_pool = std::make_unique<OpenCvOnThreadPool>(&two);
-        const auto start = std::chrono::steady_clock::now();
-        s.run(i);
-        s.ms.push_back(
-            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-                .count());
-      }
-    }
-  }
-  // The answers of both decodes, against the tour image of the query's own name (Gardens
-  // Point and the corridor name a query after its place): the reduced decode must not
-  // cost accuracy.
-  int truths = 0, right_full = 0, right_reduced = 0, same = 0;
-  std::vector<double> stage_ms[5];  // localise's own stages, one thread
-  for (size_t i = 0; i < f.size(); ++i) {
-    const cv::Mat reduced = ReducedDecode(in.jpegs[i], f[i].target, f[i].width, f[i].height);
-    const auto a = Must(Localise(f[i].features, in.map, match, nullptr));
-    const auto b =
-        Must(Localise(Must(extractor->Extract(reduced, f[i].target)), in.map, match, nullptr));
-    const StageTimings& st = a.timings;
-    const double ms[5] = {st.descriptor_ms, st.neighbourhood_ms, st.likelihood_ms, st.holistic_ms,
-                          st.verify_ms};
-    for (int k = 0; k < 5; ++k) stage_ms[k].push_back(ms[k]);
-    if (a.ranked.empty() || b.ranked.empty()) continue;
-    same += a.ranked[0].index == b.ranked[0].index;
-    const auto& names = in.map.image_names;
-    const auto truth = std::find(names.begin(), names.end(), in.names[i]);
-    if (truth == names.end()) continue;
-    const int t = static_cast<int>(truth - names.begin());
-    ++truths;
-    right_full += std::abs(a.ranked[0].index - t) <= 2;
-    right_reduced += std::abs(b.ranked[0].index - t) <= 2;
-  }
-  const double floor = Quantile(stages[0].ms, 0.5);
-  std::printf("%zu frames of %dx%d, working frame %dx%d, %d landmarks, %d rounds\n", f.size(),
-              f[0].width, f[0].height, f[0].target.width, f[0].target.height,
-              in.map.num_landmarks(), rounds);
-  std::printf("%-42s %9s %9s %9s\n", "stage", "p50 ms", "p99 ms", "p50/floor");
-  for (const Stage& s : stages) {
-    const double p50 = Quantile(s.ms, 0.5);
-    std::printf("%-42s %9.2f %9.2f %9.2f\n", s.name.c_str(), p50, Quantile(s.ms, 0.99),
-                p50 / floor);
-  }
-  const char* stage_names[5] = {"descriptor (S_D)", "neighbourhood (S_N)", "likelihood", "holistic",
-                                "verification"};
-  std::printf("localise stages, 1 thread, p50 ms:");
-  for (int k = 0; k < 5; ++k) std::printf(" %s %.2f", stage_names[k], Quantile(stage_ms[k], 0.5));
-  std::printf("\n");
-  std::printf("answers: reduced and full decode agree on %d of %zu frames", same, f.size());
-  if (truths > 0) {
-    std::printf("; within 2 of the same-named tour image: full %d, reduced %d of %d", right_full,
-                right_reduced, truths);
-  }
-  std::printf("\n");
+  Setup s(std::move(in));
+  std::vector<Stage> stages = MakeStages(s);
+  Measure(s, rounds, &stages);
+  const Agreement agreement = CompareDecodes(s);
+  PrintResults(s, rounds, stages, agreement);
   return 0;
 }

@@ -193,12 +193,36 @@ void PrintMaps(const google::protobuf::RepeatedPtrField<v1::MapInfo>& maps) {
   }
 }
 
-}  // namespace
+// Prints `status` as the command's error and returns exit status `code`.
+int Error(const Status& status, int code) {
+  std::fprintf(stderr, "sceneloc: %s\n", status.message().c_str());
+  return code;
+}
 
-int main(int argc, char** argv) {
-  CLI::App app{"sceneloc: client of sceneloc-server"};
-  app.require_subcommand(1);
-  std::string server, map, out, config;
+int RunMaps(sceneloc::Client* client) {
+  auto reply = client->ListMaps();
+  if (!reply.ok()) return Error(reply.status(), 1);
+  PrintMaps(reply->maps());
+  return 0;
+}
+
+int RunReload(sceneloc::Client* client, const std::string& map) {
+  auto reply = client->Reload(map);
+  if (!reply.ok()) return Error(reply.status(), 1);
+  PrintMaps(google::protobuf::RepeatedPtrField<v1::MapInfo>(&reply->map(), &reply->map() + 1));
+  return 0;
+}
+
+int RunStats(sceneloc::Client* client) {
+  auto reply = client->Stats();
+  if (!reply.ok()) return Error(reply.status(), 1);
+  std::printf("%s", reply->DebugString().c_str());
+  return 0;
+}
+
+// Everything the command line sets, for every subcommand.
+struct CommandLine {
+  std::string server, map, out;
   std::vector<std::string> inputs;
   bool features = false, uint8 = false;
   int timeout_ms = 10000;
@@ -206,131 +230,159 @@ int main(int argc, char** argv) {
   sceneloc::LocaliseOptions localise_options;
   float min_confidence = -1;
   sceneloc::ClientExtractorSource extract_source;
+  KeyFiles keys;
+  sceneloc::BenchArgs bench_args;
+  std::string key_name, key_dir = ".";
+  bool force = false;
+};
 
-  CLI::App* localise = app.add_subcommand("localise", "localise images (or feature sets)");
-  localise->add_option("--server", server, "server endpoint, e.g. tcp://localhost:5555")
+// The subcommands, to ask which one was given.
+struct Commands {
+  CLI::App* localise;
+  CLI::App* extract;
+  CLI::App* maps;
+  CLI::App* reload;
+  CLI::App* stats;
+  CLI::App* bench;
+  CLI::App* keygen;
+};
+
+CLI::App* AddLocalise(CLI::App* app, CommandLine* c) {
+  CLI::App* localise = app->add_subcommand("localise", "localise images (or feature sets)");
+  localise->add_option("--server", c->server, "server endpoint, e.g. tcp://localhost:5555")
       ->required();
-  localise->add_option("--map", map, "map name")->required();
-  localise->add_flag("--features", features, "the inputs are feature-set files (sceneloc extract)");
-  localise->add_option("--top-k", localise_options.top_k,
+  localise->add_option("--map", c->map, "map name")->required();
+  localise->add_flag("--features", c->features,
+                     "the inputs are feature-set files (sceneloc extract)");
+  localise->add_option("--top-k", c->localise_options.top_k,
                        "ranked locations wanted (0 = server default)");
   localise
-      ->add_option("--min-confidence", min_confidence,
+      ->add_option("--min-confidence", c->min_confidence,
                    "answers below this are UNKNOWN (default: the server's)")
       ->check(CLI::Range(0.0, 1.0));
-  localise->add_option("--session", localise_options.session,
+  localise->add_option("--session", c->localise_options.session,
                        "send the inputs in order as one session (e.g. the robot's name); each "
                        "answer adds the session's filtered one");
-  localise->add_flag("--reset-session", localise_options.reset_session,
+  localise->add_flag("--reset-session", c->localise_options.reset_session,
                      "with --session: forget the session's past before the first input");
-  localise->add_option("--timeout-ms", timeout_ms, "per attempt");
-  localise->add_option("inputs", inputs, "JPEG images, or feature-set files with --features")
+  localise->add_option("--timeout-ms", c->timeout_ms, "per attempt");
+  localise->add_option("inputs", c->inputs, "JPEG images, or feature-set files with --features")
       ->required();
+  return localise;
+}
 
-  CLI::App* extract = app.add_subcommand("extract", "compute an image's feature set locally");
-  extract->add_option("image", inputs, "image file")->required()->expected(1);
-  extract->add_option("--out", out, "feature-set file to write")->required();
-  extract->add_option("--map-file", extract_source.map_file,
+CLI::App* AddExtract(CLI::App* app, CommandLine* c) {
+  CLI::App* extract = app->add_subcommand("extract", "compute an image's feature set locally");
+  extract->add_option("image", c->inputs, "image file")->required()->expected(1);
+  extract->add_option("--out", c->out, "feature-set file to write")->required();
+  extract->add_option("--map-file", c->extract_source.map_file,
                       "extract as the server would for this map (its settings and frame)");
-  extract->add_option("--config", extract_source.config,
+  extract->add_option("--config", c->extract_source.config,
                       "else: training settings whose extractor: section to use");
-  extract->add_option("--working-size", extract_source.working_size,
+  extract->add_option("--working-size", c->extract_source.working_size,
                       "else: override extractor.working_size (long side, pixels)");
-  extract->add_flag("--uint8", uint8, "store descriptors as uint8 (4x smaller)");
+  extract->add_flag("--uint8", c->uint8, "store descriptors as uint8 (4x smaller)");
+  return extract;
+}
 
-  CLI::App* maps = app.add_subcommand("maps", "list the server's maps");
-  CLI::App* reload = app.add_subcommand("reload", "reload a map from the server's maps folder");
-  CLI::App* stats = app.add_subcommand("stats", "the server's counters");
-  for (CLI::App* sub : {maps, reload, stats}) {
-    sub->add_option("--server", server, "server endpoint")->required();
-    sub->add_option("--timeout-ms", timeout_ms, "per attempt");
-  }
-  KeyFiles keys;
-  for (CLI::App* sub : {localise, maps, reload, stats}) {
-    sub->add_option("--overload-wait-ms", overload_wait_ms,
-                    "longest to wait out OVERLOADED replies (retrying after the server's hint)")
-        ->capture_default_str()
-        ->check(CLI::NonNegativeNumber);
-    sub->add_option("--key", keys.own, "CURVE: this client's key pair (sceneloc keygen)");
-    sub->add_option("--server-key", keys.server, "CURVE: the server's public key (.pub)");
-  }
-  reload->add_option("--map", map, "map name")->required();
+// The options of every command that talks to a server: how long to wait out overload
+// replies, and the CURVE keys.
+void AddConnectionOptions(CLI::App* sub, CommandLine* c) {
+  sub->add_option("--overload-wait-ms", c->overload_wait_ms,
+                  "longest to wait out OVERLOADED replies (retrying after the server's hint)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  sub->add_option("--key", c->keys.own, "CURVE: this client's key pair (sceneloc keygen)");
+  sub->add_option("--server-key", c->keys.server, "CURVE: the server's public key (.pub)");
+}
 
-  sceneloc::BenchArgs bench_args;
-  CLI::App* bench = app.add_subcommand("bench", "load generator: N clients for S seconds");
-  bench->add_option("--server", bench_args.endpoint, "server endpoint")->required();
-  bench->add_option("--map", bench_args.map, "map name")->required();
-  bench->add_option("--clients", bench_args.clients, "client threads, one connection each")
+CLI::App* AddBench(CLI::App* app, sceneloc::BenchArgs* b) {
+  CLI::App* bench = app->add_subcommand("bench", "load generator: N clients for S seconds");
+  bench->add_option("--server", b->endpoint, "server endpoint")->required();
+  bench->add_option("--map", b->map, "map name")->required();
+  bench->add_option("--clients", b->clients, "client threads, one connection each")
       ->capture_default_str();
-  bench->add_option("--duration", bench_args.duration_s, "seconds to send requests for")
+  bench->add_option("--duration", b->duration_s, "seconds to send requests for")
       ->capture_default_str();
-  bench->add_flag("--features", bench_args.features,
+  bench->add_flag("--features", b->features,
                   "extract feature sets once on the client and send those instead of JPEGs");
-  bench->add_flag("--uint8", bench_args.uint8,
+  bench->add_flag("--uint8", b->uint8,
                   "with --features: send the descriptors as uint8 (a quarter of float32's bytes)");
-  bench->add_option("--map-file", bench_args.map_file,
+  bench->add_option("--map-file", b->map_file,
                     "with --features: take the extractor settings from this map file");
-  bench->add_option("--config", bench_args.config,
+  bench->add_option("--config", b->config,
                     "with --features: training settings whose extractor: section to use");
-  bench->add_option("--working-size", bench_args.working_size,
+  bench->add_option("--working-size", b->working_size,
                     "with --features: override extractor.working_size (long side, pixels)");
-  bench->add_flag("--sessions", bench_args.sessions,
+  bench->add_flag("--sessions", b->sessions,
                   "each client thread is one robot's session through the folder in order");
-  bench->add_option("--json", bench_args.json_out, "write the results as JSON to this file");
-  bench->add_option("--top-k", bench_args.top_k, "ranked locations wanted (0 = server default)");
-  bench->add_option("--timeout-ms", bench_args.timeout_ms, "per attempt")->capture_default_str();
+  bench->add_option("--json", b->json_out, "write the results as JSON to this file");
+  bench->add_option("--top-k", b->top_k, "ranked locations wanted (0 = server default)");
+  bench->add_option("--timeout-ms", b->timeout_ms, "per attempt")->capture_default_str();
   bench
-      ->add_option("--retries", bench_args.retries,
+      ->add_option("--retries", b->retries,
                    "attempts after a timeout or UNAVAILABLE, each on a fresh socket (0: none, "
                    "so failures are not hidden)")
       ->capture_default_str();
-  bench->add_option("--key", bench_args.key_file, "CURVE: this client's key pair");
-  bench->add_option("--server-key", bench_args.server_key_file, "CURVE: the server's public key");
-  bench->add_option("dir", bench_args.image_dir, "folder of query images")->required();
+  bench->add_option("--key", b->key_file, "CURVE: this client's key pair");
+  bench->add_option("--server-key", b->server_key_file, "CURVE: the server's public key");
+  bench->add_option("dir", b->image_dir, "folder of query images")->required();
+  return bench;
+}
 
-  std::string key_name, key_dir = ".";
-  bool force = false;
-  CLI::App* keygen = app.add_subcommand("keygen", "write a CURVE key pair NAME.key, NAME.pub");
-  keygen->add_option("name", key_name, "key name (a robot, the server, an operator)")->required();
-  keygen->add_option("--dir", key_dir, "folder to write them to")->capture_default_str();
-  keygen->add_flag("--force", force, "overwrite existing files");
+CLI::App* AddKeygen(CLI::App* app, CommandLine* c) {
+  CLI::App* keygen = app->add_subcommand("keygen", "write a CURVE key pair NAME.key, NAME.pub");
+  keygen->add_option("name", c->key_name, "key name (a robot, the server, an operator)")
+      ->required();
+  keygen->add_option("--dir", c->key_dir, "folder to write them to")->capture_default_str();
+  keygen->add_flag("--force", c->force, "overwrite existing files");
+  return keygen;
+}
+
+// Every subcommand and its options, in the order --help lists them.
+Commands AddCommands(CLI::App* app, CommandLine* c) {
+  Commands cmd;
+  cmd.localise = AddLocalise(app, c);
+  cmd.extract = AddExtract(app, c);
+  cmd.maps = app->add_subcommand("maps", "list the server's maps");
+  cmd.reload = app->add_subcommand("reload", "reload a map from the server's maps folder");
+  cmd.stats = app->add_subcommand("stats", "the server's counters");
+  for (CLI::App* sub : {cmd.maps, cmd.reload, cmd.stats}) {
+    sub->add_option("--server", c->server, "server endpoint")->required();
+    sub->add_option("--timeout-ms", c->timeout_ms, "per attempt");
+  }
+  for (CLI::App* sub : {cmd.localise, cmd.maps, cmd.reload, cmd.stats}) {
+    AddConnectionOptions(sub, c);
+  }
+  cmd.reload->add_option("--map", c->map, "map name")->required();
+  cmd.bench = AddBench(app, &c->bench_args);
+  cmd.keygen = AddKeygen(app, c);
+  return cmd;
+}
+
+// The commands that talk to one server: localise, maps, reload, stats.
+int RunOnServer(const Commands& cmd, CommandLine* c) {
+  auto client = Connect(c->server, c->timeout_ms, c->overload_wait_ms, c->keys);
+  if (!client.ok()) return Error(client.status(), 2);
+  if (c->min_confidence >= 0) c->localise_options.min_confidence = c->min_confidence;
+  if (cmd.localise->parsed()) {
+    return RunLocalise(client->get(), c->map, c->inputs, c->features, c->localise_options);
+  }
+  if (cmd.maps->parsed()) return RunMaps(client->get());
+  if (cmd.reload->parsed()) return RunReload(client->get(), c->map);
+  return RunStats(client->get());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"sceneloc: client of sceneloc-server"};
+  app.require_subcommand(1);
+  CommandLine c;
+  const Commands cmd = AddCommands(&app, &c);
   CLI11_PARSE(app, argc, argv);
-
-  if (extract->parsed()) return RunExtract(inputs[0], out, extract_source, uint8);
-  if (bench->parsed()) return sceneloc::RunBench(bench_args);
-  if (keygen->parsed()) return RunKeygen(key_name, key_dir, force);
-  auto client = Connect(server, timeout_ms, overload_wait_ms, keys);
-  if (!client.ok()) {
-    std::fprintf(stderr, "sceneloc: %s\n", client.status().message().c_str());
-    return 2;
-  }
-  if (min_confidence >= 0) localise_options.min_confidence = min_confidence;
-  if (localise->parsed()) {
-    return RunLocalise(client->get(), map, inputs, features, localise_options);
-  }
-  if (maps->parsed()) {
-    auto reply = (*client)->ListMaps();
-    if (!reply.ok()) {
-      std::fprintf(stderr, "sceneloc: %s\n", reply.status().message().c_str());
-      return 1;
-    }
-    PrintMaps(reply->maps());
-    return 0;
-  }
-  if (reload->parsed()) {
-    auto reply = (*client)->Reload(map);
-    if (!reply.ok()) {
-      std::fprintf(stderr, "sceneloc: %s\n", reply.status().message().c_str());
-      return 1;
-    }
-    PrintMaps(google::protobuf::RepeatedPtrField<v1::MapInfo>(&reply->map(), &reply->map() + 1));
-    return 0;
-  }
-  auto reply = (*client)->Stats();
-  if (!reply.ok()) {
-    std::fprintf(stderr, "sceneloc: %s\n", reply.status().message().c_str());
-    return 1;
-  }
-  std::printf("%s", reply->DebugString().c_str());
-  return 0;
+  if (cmd.extract->parsed()) return RunExtract(c.inputs[0], c.out, c.extract_source, c.uint8);
+  if (cmd.bench->parsed()) return sceneloc::RunBench(c.bench_args);
+  if (cmd.keygen->parsed()) return RunKeygen(c.key_name, c.key_dir, c.force);
+  return RunOnServer(cmd, &c);
 }

@@ -194,12 +194,8 @@ std::string Hostname() {
   return name;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  CLI::App app{
-      "sceneloc-accuracy: every development set, ours beside the paper and both "
-      "baselines on the same features"};
+// The command line.
+struct Args {
   std::string data_dir = "../shared/data", out_dir = "accuracy-out", cache_dir;
   std::string train_config = "configs/train.yaml", match_config = "configs/match.yaml";
   std::string paper_train = "configs/paper-train.yaml", paper_match = "configs/paper-match.yaml";
@@ -207,88 +203,131 @@ int main(int argc, char** argv) {
   bool ablation = false;
   int tour_limit = 0, query_limit = 0;
   sl::SuiteContext context;
-  context.threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  app.add_option("--data", data_dir, "the development data (gardens_point/, corridor/)")
-      ->capture_default_str();
-  app.add_option("--out", out_dir, "folder for accuracy.json and accuracy.csv")
-      ->capture_default_str();
-  app.add_option("--cache", cache_dir, "features and generated variants (default OUT/cache)");
-  app.add_option("--sets", only, "run only these sets (comma-separated)")->delimiter(',');
-  app.add_option("--tour-limit", tour_limit, "use the first N tour images of every set");
-  app.add_option("--query-limit", query_limit, "use the first N queries of every set");
-  app.add_option("--config", train_config, "our training settings")->capture_default_str();
-  app.add_option("--match-config", match_config, "our matching settings")->capture_default_str();
-  app.add_option("--paper-config", paper_train, "the paper's training settings")
-      ->capture_default_str();
-  app.add_option("--paper-match-config", paper_match, "the paper's matching settings")
-      ->capture_default_str();
-  app.add_option("--threads", context.threads, "threads")->check(CLI::Range(1, 256));
-  app.add_flag("--ablation", ablation,
-               "run the ablation instead: every variant on every set (OUT/ablation.csv)");
-  app.add_option("--variants", variants, "with --ablation: only these variants")->delimiter(',');
-  CLI11_PARSE(app, argc, argv);
-  context.cache_dir = cache_dir.empty() ? out_dir + "/cache" : cache_dir;
+};
 
-  sl::SuiteSettings settings;
+void AddOptions(CLI::App* app, Args* a) {
+  a->context.threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  app->add_option("--data", a->data_dir, "the development data (gardens_point/, corridor/)")
+      ->capture_default_str();
+  app->add_option("--out", a->out_dir, "folder for accuracy.json and accuracy.csv")
+      ->capture_default_str();
+  app->add_option("--cache", a->cache_dir, "features and generated variants (default OUT/cache)");
+  app->add_option("--sets", a->only, "run only these sets (comma-separated)")->delimiter(',');
+  app->add_option("--tour-limit", a->tour_limit, "use the first N tour images of every set");
+  app->add_option("--query-limit", a->query_limit, "use the first N queries of every set");
+  app->add_option("--config", a->train_config, "our training settings")->capture_default_str();
+  app->add_option("--match-config", a->match_config, "our matching settings")
+      ->capture_default_str();
+  app->add_option("--paper-config", a->paper_train, "the paper's training settings")
+      ->capture_default_str();
+  app->add_option("--paper-match-config", a->paper_match, "the paper's matching settings")
+      ->capture_default_str();
+  app->add_option("--threads", a->context.threads, "threads")->check(CLI::Range(1, 256));
+  app->add_flag("--ablation", a->ablation,
+                "run the ablation instead: every variant on every set (OUT/ablation.csv)");
+  app->add_option("--variants", a->variants, "with --ablation: only these variants")
+      ->delimiter(',');
+}
+
+// Ours and the paper's settings, from their four files (all are read; the first error
+// is reported).
+sl::Status LoadSettings(const Args& a, sl::SuiteSettings* settings) {
   for (const auto& [path, status] :
-       {std::pair{train_config, sl::LoadTrainOptions(train_config, &settings.train)},
-        std::pair{match_config, sl::LoadMatchOptions(match_config, &settings.match)},
-        std::pair{paper_train, sl::LoadTrainOptions(paper_train, &settings.paper_train)},
-        std::pair{paper_match, sl::LoadMatchOptions(paper_match, &settings.paper_match)}}) {
-    if (!status.ok()) return Fail(status.message());
+       {std::pair{a.train_config, sl::LoadTrainOptions(a.train_config, &settings->train)},
+        std::pair{a.match_config, sl::LoadMatchOptions(a.match_config, &settings->match)},
+        std::pair{a.paper_train, sl::LoadTrainOptions(a.paper_train, &settings->paper_train)},
+        std::pair{a.paper_match, sl::LoadMatchOptions(a.paper_match, &settings->paper_match)}}) {
+    if (!status.ok()) return status;
   }
+  return sl::Status::Ok();
+}
+
+// The development sets to run (--sets), cut to --tour-limit and --query-limit.
+std::vector<sl::SuiteSet> SelectSets(const Args& a) {
   std::vector<sl::SuiteSet> sets;
-  for (sl::SuiteSet s : sl::DevelopmentSuite(data_dir)) {
-    if (!only.empty() && std::find(only.begin(), only.end(), s.name) == only.end()) continue;
-    if (tour_limit > 0)
-      s.tour_limit = s.tour_limit > 0 ? std::min(s.tour_limit, tour_limit) : tour_limit;
-    if (query_limit > 0) s.query_limit = query_limit;
+  for (sl::SuiteSet s : sl::DevelopmentSuite(a.data_dir)) {
+    if (!a.only.empty() && std::find(a.only.begin(), a.only.end(), s.name) == a.only.end()) {
+      continue;
+    }
+    if (a.tour_limit > 0)
+      s.tour_limit = s.tour_limit > 0 ? std::min(s.tour_limit, a.tour_limit) : a.tour_limit;
+    if (a.query_limit > 0) s.query_limit = a.query_limit;
     sets.push_back(s);
   }
-  if (sets.empty()) return Fail("no set to run: is '" + data_dir + "' the data folder?");
-  std::error_code ec;
-  std::filesystem::create_directories(out_dir, ec);
-  if (ablation) return RunAblation(sets, settings, variants, context, out_dir);
-  std::ofstream csv(out_dir + "/accuracy.csv");
-  if (!csv) return Fail("cannot write to '" + out_dir + "'");
+  return sets;
+}
+
+// One accuracy.csv row per method of a set.
+void WriteCsvRows(const sl::SuiteSet& set, const sl::SetResult& result, std::ofstream* csv) {
+  for (const Row& row : Rows(result)) {
+    const sl::MethodSummary& m = *row.summary;
+    *csv << set.name << ',' << row.method << ',' << result.outcomes.size() << ',' << m.match_rate[0]
+         << ',' << m.match_rate[1] << ',' << m.match_rate[2] << ',' << m.match_rate[3] << ','
+         << m.match_ms.median << ',' << m.match_ms.p90 << ',' << m.confidence.pr_auc << ','
+         << m.confidence.recall_at_100_precision << ',' << m.confidence.ece << ','
+         << m.confidence.ece_floor << ',' << m.confidence.correct_accepted << '\n';
+  }
+}
+
+// accuracy.json's description of the run, before any set's figures.
+nlohmann::json RunJson(const Args& a, const sl::SuiteSettings& settings) {
+  return {{"host", Hostname()},
+          {"threads", a.context.threads},
+          {"hardware_threads", std::thread::hardware_concurrency()},
+          {"train_settings", sl::TrainOptionsToYaml(settings.train)},
+          {"match_settings", sl::MatchOptionsToYaml(settings.match)},
+          {"sets", nlohmann::json::array()}};
+}
+
+// Every set with our settings: the table, OUT/accuracy.csv, .json and reliability.png.
+int RunSuite(const Args& a, const sl::SuiteSettings& settings,
+             const std::vector<sl::SuiteSet>& sets) {
+  std::ofstream csv(a.out_dir + "/accuracy.csv");
+  if (!csv) return Fail("cannot write to '" + a.out_dir + "'");
   csv << "set,method,queries,rate0,rate1,rate2,rate3,match_ms_median,match_ms_p90,pr_auc,"
          "recall_at_100_precision,ece,ece_floor,correct_accepted\n";
-
-  nlohmann::json json = {{"host", Hostname()},
-                         {"threads", context.threads},
-                         {"hardware_threads", std::thread::hardware_concurrency()},
-                         {"train_settings", sl::TrainOptionsToYaml(settings.train)},
-                         {"match_settings", sl::MatchOptionsToYaml(settings.match)},
-                         {"sets", nlohmann::json::array()}};
+  nlohmann::json json = RunJson(a, settings);
   sl::Stopwatch total;
   std::vector<sl::SetResult> results;
   std::vector<sl::ReliabilityPanel> panels;
   PrintHeader();
   for (const sl::SuiteSet& set : sets) {
     std::fprintf(stderr, "sceneloc-accuracy: %s ...\n", set.name.c_str());
-    auto result = sl::RunSet(set, settings, context);
+    auto result = sl::RunSet(set, settings, a.context);
     if (!result.ok()) return Fail(set.name + ": " + result.status().message());
     PrintSet(*result);
     json["sets"].push_back(SetJson(*result));
-    for (const Row& row : Rows(*result)) {
-      const sl::MethodSummary& m = *row.summary;
-      csv << set.name << ',' << row.method << ',' << result->outcomes.size() << ','
-          << m.match_rate[0] << ',' << m.match_rate[1] << ',' << m.match_rate[2] << ','
-          << m.match_rate[3] << ',' << m.match_ms.median << ',' << m.match_ms.p90 << ','
-          << m.confidence.pr_auc << ',' << m.confidence.recall_at_100_precision << ','
-          << m.confidence.ece << ',' << m.confidence.ece_floor << ','
-          << m.confidence.correct_accepted << '\n';
-    }
+    WriteCsvRows(set, *result, &csv);
     panels.push_back({set.name + ": sceneloc", result->summary.ours.confidence});
     results.push_back(std::move(result).value());
   }
   PrintConfidenceTable(results, settings.match.min_confidence);
-  if (sl::Status w = sl::WriteReliabilityDiagram(panels, out_dir + "/reliability.png"); !w.ok()) {
+  if (sl::Status w = sl::WriteReliabilityDiagram(panels, a.out_dir + "/reliability.png"); !w.ok()) {
     return Fail(w.message());
   }
   json["elapsed_s"] = total.Seconds();
-  std::ofstream(out_dir + "/accuracy.json") << json.dump(1) << "\n";
+  std::ofstream(a.out_dir + "/accuracy.json") << json.dump(1) << "\n";
   std::printf("%zu sets in %.0f s; %s/accuracy.json, accuracy.csv, reliability.png\n", sets.size(),
-              total.Seconds(), out_dir.c_str());
+              total.Seconds(), a.out_dir.c_str());
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "sceneloc-accuracy: every development set, ours beside the paper and both "
+      "baselines on the same features"};
+  Args a;
+  AddOptions(&app, &a);
+  CLI11_PARSE(app, argc, argv);
+  a.context.cache_dir = a.cache_dir.empty() ? a.out_dir + "/cache" : a.cache_dir;
+  sl::SuiteSettings settings;
+  if (sl::Status loaded = LoadSettings(a, &settings); !loaded.ok()) return Fail(loaded.message());
+  const std::vector<sl::SuiteSet> sets = SelectSets(a);
+  if (sets.empty()) return Fail("no set to run: is '" + a.data_dir + "' the data folder?");
+  std::error_code ec;
+  std::filesystem::create_directories(a.out_dir, ec);
+  if (a.ablation) return RunAblation(sets, settings, a.variants, a.context, a.out_dir);
+  return RunSuite(a, settings, sets);
 }

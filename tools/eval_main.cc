@@ -11,7 +11,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
-#include <nlohmann/json.hpp>
 #include <thread>
 
 #include "common/config/config.h"
@@ -20,17 +19,17 @@
 #include "common/training/trainer.h"
 #include "common/util/image_folder.h"
 #include "common/util/timer.h"
+#include "tools/eval/eval_report.h"
 #include "tools/eval/evaluation.h"
 #include "tools/eval/reliability_plot.h"
-#include "tools/eval/report_json.h"
 #include "tools/eval/sequence_eval.h"
 
 namespace {
 
 namespace sl = sceneloc;
 using sl::EvalSummary;
-using sl::MethodSummary;
-using sl::Percentiles;
+using sl::Negatives;
+using sl::SessionReport;
 
 int Fail(const std::string& message) {
   std::fprintf(stderr, "sceneloc-eval: %s\n", message.c_str());
@@ -92,13 +91,6 @@ sl::StatusOr<std::vector<sl::FeatureSet>> BaselineTour(const Args& args, const s
   return sl::ExtractFolder(*paths, map.options.extractor, args.threads, nullptr);
 }
 
-// Frames of places that are not on the route: how many would be LOCALISED.
-struct Negatives {
-  size_t frames = 0;
-  size_t accepted = 0;
-  float max_confidence = 0;
-};
-
 sl::StatusOr<Negatives> RunNegatives(const Args& args, const sl::Map& map,
                                      const sl::MatchOptions& options) {
   SCENELOC_ASSIGN_OR_RETURN(const std::vector<std::string> paths,
@@ -116,287 +108,133 @@ sl::StatusOr<Negatives> RunNegatives(const Args& args, const sl::Map& map,
   return n;
 }
 
-nlohmann::json RatesJson(const MethodSummary& m) {
-  nlohmann::json rates;
-  for (int k = 0; k <= sl::kMaxTolerance; ++k) rates[std::to_string(k)] = m.match_rate[k];
-  return rates;
+// The matching settings: the defaults, or --config.
+sl::Status LoadOptions(const Args& args, sl::MatchOptions* options) {
+  if (args.config_path.empty()) return sl::Status::Ok();
+  return sl::LoadMatchOptions(args.config_path, options);
 }
 
-nlohmann::json MethodJson(const MethodSummary& m) {
-  return {{"match_rate", RatesJson(m)},
-          {"mean_confidence", m.mean_confidence},
-          {"confidence", ConfidenceJson(m.confidence)},
-          {"timing_ms", {{"match", PercentilesJson(m.match_ms)}}}};
-}
-
-nlohmann::json QueryJson(const sl::QueryOutcome& o, bool with_baseline) {
-  nlohmann::json q = {{"query", o.name},
-                      {"truth", o.truth},
-                      {"predicted", o.ours.predicted},
-                      {"confidence", o.ours.confidence},
-                      {"extract_ms", o.extract_ms},
-                      {"match_ms", o.ours.ms},
-                      {"keypoints", o.keypoints},
-                      {"descriptor_matches", o.descriptor_matches},
-                      {"location_scores", o.location_scores},
-                      {"in_map", o.in_map},
-                      {"candidates", nlohmann::json::array()}};
-  if (with_baseline) {
-    q["baseline_predicted"] = o.baseline.predicted;
-    q["baseline_confidence"] = o.baseline.confidence;
-    q["baseline_reranked_predicted"] = o.reranked.predicted;
-    q["baseline_reranked_confidence"] = o.reranked.confidence;
-  }
-  for (const sl::CandidateEvidence& c : o.candidates) {
-    q["candidates"].push_back({{"location", c.location},
-                               {"likelihood", c.likelihood},
-                               {"holistic", c.holistic},
-                               {"holistic_rank", c.holistic_rank},
-                               {"holistic_z", c.holistic_z},
-                               {"correspondences", c.correspondences},
-                               {"inliers", c.inliers},
-                               {"log_scale", c.log_scale},
-                               {"score", c.score}});
-  }
-  return q;
-}
-
-// What a session run adds: the single-frame figures of the same frames, the filter's time,
-// and for a kidnap the frames to find the robot again after each jump.
-struct SessionReport {
-  MethodSummary single;
-  const sl::SequenceRun* run = nullptr;
-  std::vector<sl::QueryOutcome> single_outcomes;
-  int kidnap = 0;
+// The queries, extracted in the map's frame, and one outcome per query holding its name,
+// true location and extraction time.
+struct Queries {
+  std::vector<sl::FeatureSet> features;
+  std::vector<sl::QueryOutcome> outcomes;
 };
 
-nlohmann::json RelocalisationJson(const std::vector<int>& frames) {
-  std::vector<double> values(frames.begin(), frames.end());
-  const Percentiles p = sl::ComputePercentiles(values);
-  return {{"per_jump", frames},
-          {"median", p.median},
-          {"max", frames.empty() ? 0 : *std::max_element(frames.begin(), frames.end())}};
-}
-
-nlohmann::json SessionJson(const SessionReport& r) {
-  nlohmann::json j = {{"single_frame", MethodJson(r.single)},
-                      {"filter_ms_median", r.run->filter_ms_median},
-                      {"kidnap_segments", r.kidnap}};
-  if (r.kidnap > 1) {
-    j["frames_to_correct"] = RelocalisationJson(r.run->relocalisation.to_correct);
-    j["frames_to_localised"] = RelocalisationJson(r.run->relocalisation.to_localised);
+sl::StatusOr<Queries> PrepareQueries(const Args& args, const sl::Map& map) {
+  std::map<std::string, std::string> ground_truth;
+  if (!args.truth_csv.empty()) {
+    SCENELOC_ASSIGN_OR_RETURN(ground_truth, sl::ReadGroundTruth(args.truth_csv));
   }
-  return j;
-}
-
-nlohmann::json ReportJson(const EvalSummary& s, const std::vector<sl::QueryOutcome>& out,
-                          double load_ms, const sl::Map& map, const sl::MatchOptions& options,
-                          const Negatives* negatives, const SessionReport* session) {
-  nlohmann::json j = MethodJson(s.ours);
-  j["queries"] = s.queries;
-  j["confidence_model"] = sl::ConfidenceModelName(
-      sl::SupportedModel(map, *sl::ParseConfidenceModel(options.confidence_model)));
-  j["timing_ms"] = {{"extract", PercentilesJson(s.extract_ms)},
-                    {"match", PercentilesJson(s.ours.match_ms)},
-                    {"descriptor", PercentilesJson(s.descriptor_ms)},
-                    {"neighbourhood", PercentilesJson(s.neighbourhood_ms)},
-                    {"likelihood", PercentilesJson(s.likelihood_ms)},
-                    {"holistic", PercentilesJson(s.holistic_ms)},
-                    {"verify", PercentilesJson(s.verify_ms)},
-                    {"map_load", load_ms}};
-  j["map_memory_bytes"] = map.MemoryBytes();
-  if (s.has_baseline) {
-    j["baseline"] = MethodJson(s.baseline);
-    j["baseline_reranked"] = MethodJson(s.reranked);
+  SCENELOC_ASSIGN_OR_RETURN(const std::vector<std::string> paths,
+                            sl::ListImageFiles(args.queries_dir));
+  std::vector<double> extract_ms;
+  Queries queries;
+  SCENELOC_ASSIGN_OR_RETURN(queries.features, ExtractQueries(paths, map, &extract_ms));
+  std::vector<std::string> names;
+  for (const auto& p : paths) names.push_back(sl::FileName(p));
+  // After reading the images, so a file that is not an image is reported as such.
+  SCENELOC_ASSIGN_OR_RETURN(const std::vector<int> truth,
+                            sl::ResolveTruth(names, map.image_names, ground_truth));
+  queries.outcomes.resize(names.size());
+  for (size_t q = 0; q < names.size(); ++q) {
+    queries.outcomes[q].name = names[q];
+    queries.outcomes[q].truth = truth[q];
+    queries.outcomes[q].extract_ms = extract_ms[q];
   }
-  if (negatives != nullptr) {
-    j["negatives"] = {{"frames", negatives->frames},
-                      {"accepted", negatives->accepted},
-                      {"max_confidence", negatives->max_confidence}};
-  }
-  if (session != nullptr) j["session"] = SessionJson(*session);
-  j["per_query"] = nlohmann::json::array();
-  for (size_t q = 0; q < out.size(); ++q) {
-    nlohmann::json query = QueryJson(out[q], s.has_baseline);
-    if (session != nullptr) {
-      query["single_predicted"] = session->single_outcomes[q].ours.predicted;
-      query["single_confidence"] = session->single_outcomes[q].ours.confidence;
-    }
-    j["per_query"].push_back(std::move(query));
-  }
-  return j;
+  return queries;
 }
 
-void PrintMethod(const char* name, const MethodSummary& m, int tolerance) {
-  std::printf(
-      "%-9s  %5.3f  %5.3f  %5.3f  %5.3f   %5.3f       %7.2f  %7.2f   (headline ±%d: %.3f)\n", name,
-      m.match_rate[0], m.match_rate[1], m.match_rate[2], m.match_rate[3], m.mean_confidence,
-      m.match_ms.median, m.match_ms.p90, tolerance, m.match_rate[tolerance]);
-}
-
-void PrintConfidence(const char* name, const MethodSummary& m) {
-  const sl::ConfidenceMetrics& c = m.confidence;
-  std::printf("%-9s  %6.3f  %6.2f  %5.3f (%5.3f)   %5.2f            %5.2f\n", name, c.pr_auc,
-              c.recall_at_100_precision, c.ece, c.ece_floor, c.correct_accepted,
-              c.accepted_precision);
-}
-
-void PrintAnswers(const std::vector<sl::QueryOutcome>& outcomes,
-                  const std::vector<std::string>& tour_names, int tolerance, double threshold) {
-  for (const auto& o : outcomes) {
-    if (o.ours.predicted < 0) {
-      std::printf("%-16s -> no answer\n", o.name.c_str());
-      continue;
-    }
-    const int off = o.ours.predicted - o.truth;
-    std::printf("%-16s -> tour location %3d (%s), confidence %.2f %-9s [truth %d, %s]\n",
-                o.name.c_str(), o.ours.predicted, tour_names[o.ours.predicted].c_str(),
-                o.ours.confidence, o.ours.confidence >= threshold ? "LOCALISED" : "UNKNOWN",
-                o.truth, std::abs(off) <= tolerance ? "ok" : "MISS");
-  }
-}
-
-void PrintRelocalisation(const char* what, const std::vector<int>& frames) {
-  if (frames.empty()) return;
-  std::vector<double> values(frames.begin(), frames.end());
-  std::printf("  frames to %s after a jump: median %.1f, max %d, over %zu jumps\n", what,
-              sl::ComputePercentiles(values).median,
-              *std::max_element(frames.begin(), frames.end()), frames.size());
-}
-
-void PrintReport(const Args& args, const EvalSummary& s, const sl::Map& map, double load_ms,
-                 const sl::MatchOptions& options, const Negatives* negatives,
-                 const SessionReport* session) {
-  std::printf("map %s: %d locations, %d landmarks, %.1f MB in memory, loaded in %.1f ms\n",
-              args.map_path.c_str(), map.num_images(), map.num_landmarks(),
-              static_cast<double>(map.MemoryBytes()) / 1e6, load_ms);
-  std::printf("%zu queries from %s, %d matching thread(s)\n", s.queries, args.queries_dir.c_str(),
-              args.threads);
-  std::printf("method     exact   ±1     ±2     ±3     confidence  match ms (median  p90)\n");
-  PrintMethod("sceneloc", s.ours, args.tolerance);
-  if (session != nullptr) PrintMethod("single", session->single, args.tolerance);
+// Localises the queries with ours, and with the baselines when asked.
+sl::Status RunMethods(const Args& args, const sl::Map& map, const sl::MatchOptions& options,
+                      Queries* queries) {
+  std::vector<sl::FeatureSet> tour;
   if (args.with_baseline) {
-    PrintMethod("baseline", s.baseline, args.tolerance);
-    PrintMethod("+ransac", s.reranked, args.tolerance);
+    SCENELOC_ASSIGN_OR_RETURN(tour, BaselineTour(args, map));
   }
-  const auto model = sl::SupportedModel(map, *sl::ParseConfidenceModel(options.confidence_model));
-  std::printf(
-      "confidence (%s model; correct = within ±%d; accepted = confidence >= %.2f; baselines: "
-      "vote or inlier share)\n",
-      sl::ConfidenceModelName(model), map.options.tolerance, options.min_confidence);
-  std::printf("method     PR-AUC  R@100P  ECE (floor)     correct accepted  precision\n");
-  PrintConfidence("sceneloc", s.ours);
-  if (session != nullptr) PrintConfidence("single", session->single);
+  return sl::RunQueries(queries->features, map, options, args.threads,
+                        args.with_baseline ? &tour : nullptr, &queries->outcomes);
+}
+
+// With --sequence or --kidnap: the queries as one session (in `*run`). The report keeps
+// the single-frame figures; the outcomes' `ours` become the session's answers.
+std::optional<SessionReport> RunSession(const Args& args, const sl::Map& map,
+                                        const sl::MatchOptions& options,
+                                        std::optional<sl::SequenceRun>* run,
+                                        std::vector<sl::QueryOutcome>* outcomes) {
+  if (!args.sequence && args.kidnap <= 1) return std::nullopt;
+  const sl::Judging judging{map.options.tolerance, options.min_confidence};
+  const std::vector<int> order = sl::KidnapOrder(outcomes->size(), args.kidnap, args.seed);
+  *run = sl::RunSequence(*outcomes, map, options.sequence, order);
+  SessionReport session{sl::SummariseMethod(*outcomes, sl::Method::kOurs, judging), &**run,
+                        *outcomes, args.kidnap};
+  for (size_t q = 0; q < outcomes->size(); ++q) (*outcomes)[q].ours = (*run)->filtered[q].ours;
+  return session;
+}
+
+// The run as the report's heading names it; the caller adds the figures.
+sl::EvalReport ReportHeading(const Args& args, double load_ms) {
+  sl::EvalReport report;
+  report.map_path = args.map_path;
+  report.queries_dir = args.queries_dir;
+  report.negatives_dir = args.negatives_dir;
+  report.threads = args.threads;
+  report.tolerance = args.tolerance;
+  report.with_baseline = args.with_baseline;
+  report.load_ms = load_ms;
+  return report;
+}
+
+// The --json and --reliability files, when asked for.
+sl::Status WriteOutputs(const Args& args, const sl::EvalReport& report) {
+  if (!args.json_path.empty()) {
+    std::ofstream out(args.json_path);
+    out << sl::ReportJson(report).dump(2) << "\n";
+    if (!out) return sl::IoError("cannot write '" + args.json_path + "'");
+  }
+  if (args.reliability_png.empty()) return sl::Status::Ok();
+  std::vector<sl::ReliabilityPanel> panels = {{"sceneloc", report.summary->ours.confidence}};
   if (args.with_baseline) {
-    PrintConfidence("baseline", s.baseline);
-    PrintConfidence("+ransac", s.reranked);
+    panels.push_back({"baseline (vote share)", report.summary->baseline.confidence});
   }
-  if (negatives != nullptr) {
-    std::printf("negatives: %zu frames from %s, %zu LOCALISED (%.1f%%), largest confidence %.2f\n",
-                negatives->frames, args.negatives_dir.c_str(), negatives->accepted,
-                100.0 * negatives->accepted / std::max<size_t>(1, negatives->frames),
-                negatives->max_confidence);
-  }
-  if (session != nullptr) {
-    const sl::SequenceFilter filter(map, options.sequence);
-    std::printf(
-        "session: the queries in %s as one session (sceneloc row; single = the same frames one "
-        "by one); motion band -%d..+%d, filter %.3f ms per frame\n",
-        session->kidnap > 1 ? (std::to_string(session->kidnap) + " shuffled segments").c_str()
-                            : "file order",
-        filter.max_backward(), filter.max_forward(), session->run->filter_ms_median);
-    PrintRelocalisation("a correct answer", session->run->relocalisation.to_correct);
-    PrintRelocalisation("a correct LOCALISED answer", session->run->relocalisation.to_localised);
-  }
-  std::printf("extract ms per query: median %.1f, p90 %.1f\n", s.extract_ms.median,
-              s.extract_ms.p90);
-  std::printf(
-      "match stages, median ms: descriptor %.2f, neighbourhood %.2f, likelihood %.2f, "
-      "holistic %.2f, verify %.2f\n",
-      s.descriptor_ms.median, s.neighbourhood_ms.median, s.likelihood_ms.median,
-      s.holistic_ms.median, s.verify_ms.median);
+  return sl::WriteReliabilityDiagram(panels, args.reliability_png);
 }
 
 int Run(const Args& args) {
   sl::MatchOptions options;
-  if (!args.config_path.empty()) {
-    if (sl::Status s = sl::LoadMatchOptions(args.config_path, &options); !s.ok()) {
-      return Fail(s.message());
-    }
-  }
+  if (sl::Status s = LoadOptions(args, &options); !s.ok()) return Fail(s.message());
   sl::Stopwatch load_watch;
   auto map = sl::LoadMap(args.map_path);
   if (!map.ok()) return Fail(map.status().message());
   const double load_ms = load_watch.Milliseconds();
-  std::map<std::string, std::string> ground_truth;
-  if (!args.truth_csv.empty()) {
-    auto gt = sl::ReadGroundTruth(args.truth_csv);
-    if (!gt.ok()) return Fail(gt.status().message());
-    ground_truth = std::move(gt).value();
-  }
-  auto paths = sl::ListImageFiles(args.queries_dir);
-  if (!paths.ok()) return Fail(paths.status().message());
-  std::vector<double> extract_ms;
-  auto queries = ExtractQueries(*paths, *map, &extract_ms);
+  auto queries = PrepareQueries(args, *map);
   if (!queries.ok()) return Fail(queries.status().message());
-  std::vector<std::string> names;
-  for (const auto& p : *paths) names.push_back(sl::FileName(p));
-  // After reading the images, so a file that is not an image is reported as such.
-  auto truth = sl::ResolveTruth(names, map->image_names, ground_truth);
-  if (!truth.ok()) return Fail(truth.status().message());
-  std::vector<sl::QueryOutcome> outcomes(names.size());
-  for (size_t q = 0; q < outcomes.size(); ++q) {
-    outcomes[q].name = names[q];
-    outcomes[q].truth = (*truth)[q];
-    outcomes[q].extract_ms = extract_ms[q];
+  if (sl::Status ran = RunMethods(args, *map, options, &*queries); !ran.ok()) {
+    return Fail(ran.message());
   }
-  std::vector<sl::FeatureSet> tour;
-  if (args.with_baseline) {
-    auto extracted = BaselineTour(args, *map);
-    if (!extracted.ok()) return Fail(extracted.status().message());
-    tour = std::move(extracted).value();
-  }
-  const sl::Status ran = sl::RunQueries(*queries, *map, options, args.threads,
-                                        args.with_baseline ? &tour : nullptr, &outcomes);
-  if (!ran.ok()) return Fail(ran.message());
   std::optional<Negatives> negatives;
   if (!args.negatives_dir.empty()) {
     auto n = RunNegatives(args, *map, options);
     if (!n.ok()) return Fail("negatives: " + n.status().message());
     negatives = *n;
   }
-  const sl::Judging judging{map->options.tolerance, options.min_confidence};
+  std::vector<sl::QueryOutcome>& outcomes = queries->outcomes;
   std::optional<sl::SequenceRun> run;
-  std::optional<SessionReport> session;
-  if (args.sequence || args.kidnap > 1) {
-    const std::vector<int> order = sl::KidnapOrder(outcomes.size(), args.kidnap, args.seed);
-    run = sl::RunSequence(outcomes, *map, options.sequence, order);
-    session = SessionReport{sl::SummariseMethod(outcomes, sl::Method::kOurs, judging), &*run,
-                            outcomes, args.kidnap};
-    for (size_t q = 0; q < outcomes.size(); ++q) outcomes[q].ours = run->filtered[q].ours;
-  }
+  const std::optional<SessionReport> session = RunSession(args, *map, options, &run, &outcomes);
   const sl::Judging shown{map->options.tolerance,
                           session ? options.sequence.min_confidence : options.min_confidence};
   const EvalSummary s = sl::Summarise(outcomes, args.with_baseline, shown);
-  if (args.show) PrintAnswers(outcomes, map->image_names, args.tolerance, shown.threshold);
-  const SessionReport* session_report = session ? &*session : nullptr;
-  PrintReport(args, s, *map, load_ms, options, negatives ? &*negatives : nullptr, session_report);
-  if (!args.json_path.empty()) {
-    std::ofstream out(args.json_path);
-    out << ReportJson(s, outcomes, load_ms, *map, options, negatives ? &*negatives : nullptr,
-                      session_report)
-               .dump(2)
-        << "\n";
-    if (!out) return Fail("cannot write '" + args.json_path + "'");
-  }
-  if (!args.reliability_png.empty()) {
-    std::vector<sl::ReliabilityPanel> panels = {{"sceneloc", s.ours.confidence}};
-    if (args.with_baseline) panels.push_back({"baseline (vote share)", s.baseline.confidence});
-    if (sl::Status w = sl::WriteReliabilityDiagram(panels, args.reliability_png); !w.ok()) {
-      return Fail(w.message());
-    }
-  }
-  return 0;
+  if (args.show) sl::PrintAnswers(outcomes, map->image_names, args.tolerance, shown.threshold);
+  sl::EvalReport report = ReportHeading(args, load_ms);
+  report.summary = &s;
+  report.outcomes = &outcomes;
+  report.map = &*map;
+  report.options = &options;
+  report.negatives = negatives ? &*negatives : nullptr;
+  report.session = session ? &*session : nullptr;
+  sl::PrintReport(report);
+  const sl::Status written = WriteOutputs(args, report);
+  return written.ok() ? 0 : Fail(written.message());
 }
 
 }  // namespace

@@ -143,66 +143,56 @@ int Fail(const std::string& m) {
   return 1;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  CLI::App app{"sceneloc-experiments: eta sweep and environment size on real data"};
+// The command line.
+struct Args {
   sl::Context c;
   std::string out_dir, experiment = "single", train_config, match_config, train_yaml, match_yaml;
   std::string variant_name = "default";
   std::vector<int> etas = {0, 10, 20, 30, 50, 75, 100, 150};
   std::vector<int> sizes = {25, 50, 100, 150, 200};
+};
+
+void AddOptions(CLI::App* app, Args* a) {
+  sl::Context& c = a->c;
   c.threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  app.add_option("--tour", c.tour_dir, "tour folder")->required();
-  app.add_option("--queries", c.queries_dir, "query folder (truth: same file name)")->required();
-  app.add_option("--out", out_dir, "folder for the CSV files")->required();
-  app.add_option("--experiment", experiment, "single | eta | size")
+  app->add_option("--tour", c.tour_dir, "tour folder")->required();
+  app->add_option("--queries", c.queries_dir, "query folder (truth: same file name)")->required();
+  app->add_option("--out", a->out_dir, "folder for the CSV files")->required();
+  app->add_option("--experiment", a->experiment, "single | eta | size")
       ->check(CLI::IsMember({"single", "eta", "size"}));
-  app.add_option("--cache", c.cache_dir, "feature cache folder (default OUT/cache)");
-  app.add_option("--train-config", train_config, "training settings file");
-  app.add_option("--match-config", match_config, "matching settings file");
-  app.add_option("--train-yaml", train_yaml, "training settings as YAML text, applied last");
-  app.add_option("--match-yaml", match_yaml, "matching settings as YAML text, applied last");
-  app.add_option("--name", variant_name, "variant name for the single experiment");
-  app.add_option("--etas", etas, "eta values for the eta and size experiments")->delimiter(',');
-  app.add_option("--sizes", sizes, "environment sizes for the size experiment")->delimiter(',');
-  app.add_option("--threads", c.threads, "threads")->check(CLI::Range(1, 256));
-  CLI11_PARSE(app, argc, argv);
-  if (c.cache_dir.empty()) c.cache_dir = out_dir + "/cache";
-  std::filesystem::create_directories(out_dir);
+  app->add_option("--cache", c.cache_dir, "feature cache folder (default OUT/cache)");
+  app->add_option("--train-config", a->train_config, "training settings file");
+  app->add_option("--match-config", a->match_config, "matching settings file");
+  app->add_option("--train-yaml", a->train_yaml, "training settings as YAML text, applied last");
+  app->add_option("--match-yaml", a->match_yaml, "matching settings as YAML text, applied last");
+  app->add_option("--name", a->variant_name, "variant name for the single experiment");
+  app->add_option("--etas", a->etas, "eta values for the eta and size experiments")->delimiter(',');
+  app->add_option("--sizes", a->sizes, "environment sizes for the size experiment")->delimiter(',');
+  app->add_option("--threads", c.threads, "threads")->check(CLI::Range(1, 256));
+}
 
+// The settings every run starts from: the defaults, the settings files, then the YAML text.
+sl::StatusOr<sl::Settings> BaseSettings(const Args& a) {
   sl::Settings base;
-  base.name = variant_name;
-  sl::Status s;
-  if (!train_config.empty() && !(s = sl::LoadTrainOptions(train_config, &base.train)).ok()) {
-    return Fail(s.message());
+  base.name = a.variant_name;
+  if (!a.train_config.empty()) {
+    SCENELOC_RETURN_IF_ERROR(sl::LoadTrainOptions(a.train_config, &base.train));
   }
-  if (!match_config.empty() && !(s = sl::LoadMatchOptions(match_config, &base.match)).ok()) {
-    return Fail(s.message());
+  if (!a.match_config.empty()) {
+    SCENELOC_RETURN_IF_ERROR(sl::LoadMatchOptions(a.match_config, &base.match));
   }
-  if (!(s = sl::ParseTrainOptions(train_yaml, "--train-yaml", &base.train)).ok()) {
-    return Fail(s.message());
-  }
-  if (!(s = sl::ParseMatchOptions(match_yaml, "--match-yaml", &base.match)).ok()) {
-    return Fail(s.message());
-  }
-  auto data = sl::LoadData(c, base.train.extractor);
-  if (!data.ok()) return Fail(data.status().message());
-  sl::CsvWriter csv(out_dir + "/" + experiment + ".csv");
-  if (!csv.ok()) return Fail("cannot write to " + out_dir);
+  SCENELOC_RETURN_IF_ERROR(sl::ParseTrainOptions(a.train_yaml, "--train-yaml", &base.train));
+  SCENELOC_RETURN_IF_ERROR(sl::ParseMatchOptions(a.match_yaml, "--match-yaml", &base.match));
+  return base;
+}
 
-  auto run = [&](const sl::Settings& settings, const sl::Data& d) {
-    auto row = sl::Run(experiment, settings, d, c.threads);
-    if (!row.ok()) return Fail(settings.name + ": " + row.status().message());
-    csv.Add(*row);
-    return 0;
-  };
-  std::vector<std::pair<sl::Settings, int>> plan;  // settings, locations
-  const int all = static_cast<int>(data->tour.size());
-  if (experiment == "single") plan.push_back({base, all});
-  if (experiment == "eta" || experiment == "size") {
-    for (int n : experiment == "eta" ? std::vector<int>{all} : sizes) {
-      for (int eta : etas) {
+// The experiment's runs: the settings of each and the tour locations it uses (of `all`).
+std::vector<std::pair<sl::Settings, int>> Plan(const Args& a, const sl::Settings& base, int all) {
+  std::vector<std::pair<sl::Settings, int>> plan;
+  if (a.experiment == "single") plan.push_back({base, all});
+  if (a.experiment == "eta" || a.experiment == "size") {
+    for (int n : a.experiment == "eta" ? std::vector<int>{all} : a.sizes) {
+      for (int eta : a.etas) {
         sl::Settings v = base;
         v.train.eta = eta;
         v.name = "eta_" + std::to_string(eta);
@@ -210,17 +200,48 @@ int main(int argc, char** argv) {
       }
     }
   }
-  for (const auto& [settings, n] : plan) {
+  return plan;
+}
+
+// Runs the plan on `data` (or, for a variant of the extractor, on its own features), one
+// CSV row per run; the exit status.
+int RunPlan(const Args& a, const sl::Settings& base, const sl::Data& data, sl::CsvWriter* csv) {
+  auto run = [&](const sl::Settings& settings, const sl::Data& d) {
+    auto row = sl::Run(a.experiment, settings, d, a.c.threads);
+    if (!row.ok()) return Fail(settings.name + ": " + row.status().message());
+    csv->Add(*row);
+    return 0;
+  };
+  const int all = static_cast<int>(data.tour.size());
+  for (const auto& [settings, n] : Plan(a, base, all)) {
     const bool same_features =
         settings.train.extractor.max_features == base.train.extractor.max_features &&
         settings.train.extractor.working_size == base.train.extractor.working_size;
     if (!same_features) {  // a variant of the extractor: its own (cached) features
-      auto own = sl::LoadData(c, settings.train.extractor);
+      auto own = sl::LoadData(a.c, settings.train.extractor);
       if (!own.ok()) return Fail(own.status().message());
       if (const int rc = run(settings, *own); rc != 0) return rc;
       continue;
     }
-    if (const int rc = run(settings, n == all ? *data : sl::Prefix(*data, n)); rc != 0) return rc;
+    if (const int rc = run(settings, n == all ? data : sl::Prefix(data, n)); rc != 0) return rc;
   }
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"sceneloc-experiments: eta sweep and environment size on real data"};
+  Args a;
+  AddOptions(&app, &a);
+  CLI11_PARSE(app, argc, argv);
+  if (a.c.cache_dir.empty()) a.c.cache_dir = a.out_dir + "/cache";
+  std::filesystem::create_directories(a.out_dir);
+  auto base = BaseSettings(a);
+  if (!base.ok()) return Fail(base.status().message());
+  auto data = sl::LoadData(a.c, base->train.extractor);
+  if (!data.ok()) return Fail(data.status().message());
+  sl::CsvWriter csv(a.out_dir + "/" + a.experiment + ".csv");
+  if (!csv.ok()) return Fail("cannot write to " + a.out_dir);
+  return RunPlan(a, *base, *data, &csv);
 }

@@ -133,6 +133,86 @@ std::vector<int> StrongestFirst(const std::vector<cv::KeyPoint>& k, int max_feat
   return order;
 }
 
+cv::Mat ToGray(const cv::Mat& image) {
+  if (image.channels() == 1) return image;
+  cv::Mat gray;
+  cv::cvtColor(image, gray, image.channels() == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY);
+  return gray;
+}
+
+// The image in grey at the target's size: the frame features are extracted in.
+cv::Mat WorkingFrame(const cv::Mat& image, const ExtractionTarget& target) {
+  cv::Mat gray = ToGray(image);
+  if (gray.cols != target.width || gray.rows != target.height) {
+    cv::Mat scaled;
+    const bool shrink = target.width <= gray.cols && target.height <= gray.rows;
+    cv::resize(gray, scaled, cv::Size(target.width, target.height), 0, 0,
+               shrink ? cv::INTER_AREA : cv::INTER_LINEAR);
+    gray = scaled;
+  }
+  return gray;
+}
+
+// Local contrast equalisation (CLAHE) of a grey frame.
+cv::Mat Equalise(const cv::Mat& gray, double clip) {
+  cv::Mat equalised;
+  cv::createCLAHE(clip, cv::Size(8, 8))->apply(gray, equalised);
+  return equalised;
+}
+
+// The context descriptors of the kept keypoints, in their order: each keypoint at
+// context_scale times its size, read off the pyramid octave that holds that scale
+// (ContextKeypoint). At a context_scale of 2 or more no keypoint stays below octave 0, so
+// their pyramid starts at the working frame itself, a quarter of the pixels of the
+// detection pyramid's doubled base: the second pass costs the descriptors and little else.
+cv::Mat ContextDescriptors(cv::SIFT* sift, const cv::Mat& gray,
+                           const std::vector<cv::KeyPoint>& detected, const std::vector<int>& kept,
+                           double context_scale) {
+  const size_t n = kept.size();
+  std::vector<cv::KeyPoint> wide;
+  wide.reserve(n);
+  const int top = TopContextOctave(gray.cols, gray.rows);
+  for (const int i : kept) wide.push_back(ContextKeypoint(detected[i], context_scale, top));
+  cv::Mat context;
+  if (n > 0) sift->compute(gray, wide, context);
+  CV_Assert(wide.size() == n && context.rows == static_cast<int>(n));
+  return context;
+}
+
+// The kept keypoints and their local (rows of `local` by detection index) and context
+// (rows of `context` in kept order) descriptors, as a feature set of a frame of `size`.
+FeatureSet PackFeatures(const std::vector<cv::KeyPoint>& detected, const std::vector<int>& kept,
+                        const cv::Mat& local, const cv::Mat& context, const cv::Size& size) {
+  const size_t n = kept.size();
+  FeatureSet set;
+  set.image_width = size.width;
+  set.image_height = size.height;
+  set.keypoints.resize(n);
+  set.local.resize(static_cast<Eigen::Index>(n), kDescriptorSize);
+  set.context.resize(static_cast<Eigen::Index>(n), kDescriptorSize);
+  for (size_t j = 0; j < n; ++j) {
+    const cv::KeyPoint& k = detected[kept[j]];
+    set.keypoints[j] = {k.pt.x, k.pt.y, k.size, k.angle, k.response, k.octave};
+    const float* l = local.ptr<float>(kept[j]);
+    const float* c = context.ptr<float>(static_cast<int>(j));
+    const auto row = static_cast<Eigen::Index>(j);
+    std::copy(l, l + kDescriptorSize, set.local.row(row).data());
+    std::copy(c, c + kDescriptorSize, set.context.row(row).data());
+  }
+  return set;
+}
+
+// Unit rows: RootSIFT when `root_sift`, else plain L2 normalisation.
+void NormaliseDescriptors(bool root_sift, FeatureSet* set) {
+  if (root_sift) {
+    RootRows(&set->local);
+    RootRows(&set->context);
+  } else {
+    NormaliseRows(&set->local);
+    NormaliseRows(&set->context);
+  }
+}
+
 class SiftExtractor final : public FeatureExtractor {
  public:
   explicit SiftExtractor(const ExtractorOptions& options) : options_(options) {}
@@ -168,20 +248,8 @@ class SiftExtractor final : public FeatureExtractor {
 
  private:
   FeatureSet ExtractOrThrow(const cv::Mat& image, const ExtractionTarget& target) const {
-    cv::Mat gray = ToGray(image);
-    if (gray.cols != target.width || gray.rows != target.height) {
-      cv::Mat scaled;
-      const bool shrink = target.width <= gray.cols && target.height <= gray.rows;
-      cv::resize(gray, scaled, cv::Size(target.width, target.height), 0, 0,
-                 shrink ? cv::INTER_AREA : cv::INTER_LINEAR);
-      gray = scaled;
-    }
-    const cv::Mat holistic_source = gray;
-    if (options_.clahe_clip > 0) {
-      cv::Mat equalised;
-      cv::createCLAHE(options_.clahe_clip, cv::Size(8, 8))->apply(gray, equalised);
-      gray = equalised;
-    }
+    const cv::Mat frame = WorkingFrame(image, target);
+    const cv::Mat gray = options_.clahe_clip > 0 ? Equalise(frame, options_.clahe_clip) : frame;
     // cv::SIFT holds per-call scratch state, so each call makes its own (cheap).
     auto sift =
         cv::SIFT::create(options_.max_features, kSiftOctaveLayers, options_.contrast_threshold,
@@ -193,56 +261,16 @@ class SiftExtractor final : public FeatureExtractor {
     // detectAndCompute keeps keypoints and descriptor rows one-to-one; check, not assume.
     CV_Assert(local.rows == static_cast<int>(detected.size()));
     const std::vector<int> kept = StrongestFirst(detected, options_.max_features);
-    const size_t n = kept.size();
-    // The context descriptors: each keypoint at context_scale times its size, read off the
-    // pyramid octave that holds that scale (ContextKeypoint). At a context_scale of 2 or
-    // more no keypoint stays below octave 0, so their pyramid starts at the working frame
-    // itself, a quarter of the pixels of the detection pyramid's doubled base: the second
-    // pass costs the descriptors and little else.
-    std::vector<cv::KeyPoint> wide;
-    wide.reserve(n);
-    const int top = TopContextOctave(gray.cols, gray.rows);
-    for (const int i : kept)
-      wide.push_back(ContextKeypoint(detected[i], options_.context_scale, top));
-    cv::Mat context;
-    if (n > 0) sift->compute(gray, wide, context);
-    CV_Assert(wide.size() == n && context.rows == static_cast<int>(n));
-
-    FeatureSet set;
-    set.image_width = gray.cols;
-    set.image_height = gray.rows;
-    set.keypoints.resize(n);
-    set.local.resize(static_cast<Eigen::Index>(n), kDescriptorSize);
-    set.context.resize(static_cast<Eigen::Index>(n), kDescriptorSize);
-    for (size_t j = 0; j < n; ++j) {
-      const cv::KeyPoint& k = detected[kept[j]];
-      set.keypoints[j] = {k.pt.x, k.pt.y, k.size, k.angle, k.response, k.octave};
-      const float* l = local.ptr<float>(kept[j]);
-      const float* c = context.ptr<float>(static_cast<int>(j));
-      const auto row = static_cast<Eigen::Index>(j);
-      std::copy(l, l + kDescriptorSize, set.local.row(row).data());
-      std::copy(c, c + kDescriptorSize, set.context.row(row).data());
-    }
-    if (options_.root_sift) {
-      RootRows(&set.local);
-      RootRows(&set.context);
-    } else {
-      NormaliseRows(&set.local);
-      NormaliseRows(&set.context);
-    }
+    const cv::Mat context =
+        ContextDescriptors(sift.get(), gray, detected, kept, options_.context_scale);
+    FeatureSet set = PackFeatures(detected, kept, local, context, gray.size());
+    NormaliseDescriptors(options_.root_sift, &set);
     if (!target.holistic.empty()) {
+      // From the frame before equalisation.
       set.holistic_grid = target.holistic;
-      set.holistic =
-          ComputeHolistic(holistic_source, target.holistic, options_.holistic.cell_pixels);
+      set.holistic = ComputeHolistic(frame, target.holistic, options_.holistic.cell_pixels);
     }
     return set;
-  }
-
-  static cv::Mat ToGray(const cv::Mat& image) {
-    if (image.channels() == 1) return image;
-    cv::Mat gray;
-    cv::cvtColor(image, gray, image.channels() == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY);
-    return gray;
   }
 
   const ExtractorOptions options_;

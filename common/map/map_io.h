@@ -56,7 +56,7 @@
 //   ransac_threshold was f64 ransac_threshold_px and distance_sd_floor f64
 //   distance_var_floor (pixels^2). LoadMap converts such a map to today's terms: its
 //   working frame is the frame it was made in, pixel settings become fractions of it, and
-//   it has neither holistic descriptors nor a calibration (see UpgradeV1 in map_io.cc).
+//   it has neither holistic descriptors nor a calibration (see UpgradeV1 in map_layout.cc).
 //   The derived Map fields (local_mean_sqnorm) are not stored; loading recomputes them.
 //
 // Compatibility: bytes 0..11 (magic and format version) mean the same in every version;

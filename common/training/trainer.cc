@@ -175,6 +175,107 @@ void SummariseImages(const Map& map, TrainSummary* s) {
       static_cast<double>(map.image_landmarks.size()) / std::max(1, map.num_images());
 }
 
+// The tracks the landmarks come from: tracked between images, kept by length and topped
+// up for coverage. Fills the tracking figures of `s`.
+StatusOr<std::vector<Track>> TrackLandmarks(const std::vector<FeatureSet>& tour,
+                                            const TrainOptions& options, ThreadPool* pool,
+                                            const ProgressFn& progress, TrainSummary* s) {
+  Stopwatch watch;
+  TrackingStats tracking;
+  std::vector<Track> tracks = ApplyMinTrackLength(BuildTracks(tour, options, pool, &tracking), tour,
+                                                  options.min_track_length);
+  s->candidate_links = tracking.candidate_links;
+  s->verified_links = tracking.verified_links;
+  SummariseTracks(tracks, s);
+  s->coverage_landmarks = AddCoverageTracks(tour, options.min_landmarks_per_image, &tracks);
+  s->track_seconds = watch.Seconds();
+  if (progress) progress("track", tour.size() - 1, tour.size() - 1);
+  if (tracks.empty()) {
+    return FailedPrecondition(
+        "no feature could be tracked between consecutive tour images; "
+        "are the images of one route, in order?");
+  }
+  return tracks;
+}
+
+// The candidate map: one landmark fused from each track, with its image lists but no
+// neighbours yet; validated and finalised.
+StatusOr<Map> FuseCandidates(const std::vector<Track>& tracks, const std::vector<FeatureSet>& tour,
+                             const std::vector<std::string>& image_names,
+                             const TrainOptions& options, TrainSummary* s) {
+  Stopwatch watch;
+  Map candidates;
+  candidates.options = options;
+  candidates.image_names = image_names;
+  candidates.image_width = tour.front().image_width;
+  candidates.image_height = tour.front().image_height;
+  s->frame_width = candidates.image_width;
+  s->frame_height = candidates.image_height;
+  CopyHolistic(tour, &candidates);
+  FuseLandmarks(tracks, tour, options, &candidates);
+  BuildImageLists(&candidates);
+  candidates.neighbour_offsets.assign(tracks.size() + 1, 0);
+  SCENELOC_RETURN_IF_ERROR(candidates.Validate());
+  candidates.Finalize();
+  s->landmarks_before_selection = tracks.size();
+  s->fuse_seconds = watch.Seconds();
+  return candidates;
+}
+
+// The candidates worth keeping (paper II-C): by quality Q, at most eta per image, at least
+// q_min. Fills candidates->quality on the way.
+StatusOr<std::vector<uint32_t>> SelectCandidates(const std::vector<Track>& tracks,
+                                                 const std::vector<FeatureSet>& tour,
+                                                 const TrainOptions& options, ThreadPool* pool,
+                                                 const ProgressFn& progress, Map* candidates,
+                                                 TrainSummary* s) {
+  Stopwatch watch;
+  candidates->quality =
+      ComputeQuality(*candidates, tracks, tour, options.quality_s_min, options.quality_fp_prior,
+                     pool, [&](size_t done, size_t total) {
+                       if (progress) progress("quality", done, total);
+                     });
+  s->quality_seconds = watch.Seconds();
+
+  watch.Reset();
+  std::vector<std::vector<uint32_t>> landmark_images(tracks.size());
+  for (size_t t = 0; t < tracks.size(); ++t) {
+    for (const TrackObservation& o : tracks[t]) landmark_images[t].push_back(o.image);
+  }
+  const std::vector<uint32_t> keep =
+      SelectLandmarks(landmark_images, candidates->quality, static_cast<int>(tour.size()),
+                      options.eta, options.q_min);
+  s->select_seconds = watch.Seconds();
+  if (keep.empty()) {
+    return FailedPrecondition("no landmark reached q_min = " + std::to_string(options.q_min));
+  }
+  return keep;
+}
+
+// The map of the kept landmarks: their neighbours, provenance and calibration; validated
+// and finalised.
+StatusOr<Map> BuildFinalMap(const Map& candidates, const std::vector<uint32_t>& keep,
+                            const TrainOptions& options, ThreadPool* pool, TrainSummary* s) {
+  Stopwatch watch;
+  Map map = SubsetLandmarks(candidates, keep);
+  BuildNeighbours(options, &map);
+  s->cooccurrence_seconds = watch.Seconds();
+  SummariseImages(map, s);
+
+  MapProvenance& p = map.provenance;
+  p.created_utc = UtcNow();
+  p.tool_version = "0.1.0";
+  p.num_features = static_cast<uint32_t>(s->features);
+  p.num_tracks = static_cast<uint32_t>(s->tracks);
+  p.num_candidates = static_cast<uint32_t>(s->landmarks_before_selection);
+  watch.Reset();
+  CalibrateMap(&map, pool);
+  s->calibration_seconds = watch.Seconds();
+  SCENELOC_RETURN_IF_ERROR(map.Validate());
+  map.Finalize();
+  return map;
+}
+
 }  // namespace
 
 StatusOr<std::vector<FeatureSet>> ExtractImages(const std::vector<std::string>& image_paths,
@@ -247,79 +348,14 @@ StatusOr<TrainResult> TrainFromFeatures(const std::vector<FeatureSet>& tour,
   s.images = tour.size();
   for (const FeatureSet& f : tour) s.features += static_cast<size_t>(f.size());
   ThreadPool pool(threads);
-
-  Stopwatch watch;
-  TrackingStats tracking;
-  std::vector<Track> tracks = ApplyMinTrackLength(BuildTracks(tour, options, &pool, &tracking),
-                                                  tour, options.min_track_length);
-  s.candidate_links = tracking.candidate_links;
-  s.verified_links = tracking.verified_links;
-  SummariseTracks(tracks, &s);
-  s.coverage_landmarks = AddCoverageTracks(tour, options.min_landmarks_per_image, &tracks);
-  s.track_seconds = watch.Seconds();
-  if (progress) progress("track", tour.size() - 1, tour.size() - 1);
-  if (tracks.empty()) {
-    return FailedPrecondition(
-        "no feature could be tracked between consecutive tour images; "
-        "are the images of one route, in order?");
-  }
+  SCENELOC_ASSIGN_OR_RETURN(const std::vector<Track> tracks,
+                            TrackLandmarks(tour, options, &pool, progress, &s));
   SCENELOC_RETURN_IF_ERROR(CheckFrames(tour));
-
-  watch.Reset();
-  Map candidates;
-  candidates.options = options;
-  candidates.image_names = image_names;
-  candidates.image_width = tour.front().image_width;
-  candidates.image_height = tour.front().image_height;
-  s.frame_width = candidates.image_width;
-  s.frame_height = candidates.image_height;
-  CopyHolistic(tour, &candidates);
-  FuseLandmarks(tracks, tour, options, &candidates);
-  BuildImageLists(&candidates);
-  candidates.neighbour_offsets.assign(tracks.size() + 1, 0);
-  SCENELOC_RETURN_IF_ERROR(candidates.Validate());
-  candidates.Finalize();
-  s.landmarks_before_selection = tracks.size();
-  s.fuse_seconds = watch.Seconds();
-
-  watch.Reset();
-  candidates.quality =
-      ComputeQuality(candidates, tracks, tour, options.quality_s_min, options.quality_fp_prior,
-                     &pool, [&](size_t done, size_t total) {
-                       if (progress) progress("quality", done, total);
-                     });
-  s.quality_seconds = watch.Seconds();
-
-  watch.Reset();
-  std::vector<std::vector<uint32_t>> landmark_images(tracks.size());
-  for (size_t t = 0; t < tracks.size(); ++t) {
-    for (const TrackObservation& o : tracks[t]) landmark_images[t].push_back(o.image);
-  }
-  const std::vector<uint32_t> keep =
-      SelectLandmarks(landmark_images, candidates.quality, static_cast<int>(tour.size()),
-                      options.eta, options.q_min);
-  s.select_seconds = watch.Seconds();
-  if (keep.empty()) {
-    return FailedPrecondition("no landmark reached q_min = " + std::to_string(options.q_min));
-  }
-
-  watch.Reset();
-  result.map = SubsetLandmarks(candidates, keep);
-  BuildNeighbours(options, &result.map);
-  s.cooccurrence_seconds = watch.Seconds();
-  SummariseImages(result.map, &s);
-
-  MapProvenance& p = result.map.provenance;
-  p.created_utc = UtcNow();
-  p.tool_version = "0.1.0";
-  p.num_features = static_cast<uint32_t>(s.features);
-  p.num_tracks = static_cast<uint32_t>(s.tracks);
-  p.num_candidates = static_cast<uint32_t>(s.landmarks_before_selection);
-  watch.Reset();
-  CalibrateMap(&result.map, &pool);
-  s.calibration_seconds = watch.Seconds();
-  SCENELOC_RETURN_IF_ERROR(result.map.Validate());
-  result.map.Finalize();
+  SCENELOC_ASSIGN_OR_RETURN(Map candidates, FuseCandidates(tracks, tour, image_names, options, &s));
+  SCENELOC_ASSIGN_OR_RETURN(
+      const std::vector<uint32_t> keep,
+      SelectCandidates(tracks, tour, options, &pool, progress, &candidates, &s));
+  SCENELOC_ASSIGN_OR_RETURN(result.map, BuildFinalMap(candidates, keep, options, &pool, &s));
   return result;
 }
 

@@ -255,5 +255,90 @@ TEST(ExtractorTest, RefusesUnusableImages) {
   EXPECT_EQ(flat->size(), 0);
 }
 
+// The default options are valid; each field out of its range is refused, naming it.
+TEST(ExtractorTest, OptionsOutOfRangeAreRefused) {
+  EXPECT_TRUE(ExtractorOptions().Validate().ok());
+  struct Case {
+    void (*set)(ExtractorOptions*);
+    const char* field;
+  };
+  const Case cases[] = {
+      {[](ExtractorOptions* o) { o->max_features = -1; }, "max_features"},
+      {[](ExtractorOptions* o) { o->working_size = 63; }, "working_size"},
+      {[](ExtractorOptions* o) { o->context_scale = 1.0; }, "context_scale"},
+      {[](ExtractorOptions* o) { o->contrast_threshold = 0; }, "contrast_threshold"},
+      {[](ExtractorOptions* o) { o->edge_threshold = -1; }, "edge_threshold"},
+      {[](ExtractorOptions* o) { o->sigma = 0; }, "sigma"},
+      {[](ExtractorOptions* o) { o->clahe_clip = 101; }, "clahe_clip"},
+      {[](ExtractorOptions* o) { o->max_image_side = 15; }, "max_image_side"},
+  };
+  for (const Case& c : cases) {
+    ExtractorOptions o;
+    c.set(&o);
+    const Status status = o.Validate();
+    EXPECT_EQ(status.code(), StatusCode::kInvalidArgument) << c.field;
+    EXPECT_NE(status.message().find(c.field), std::string::npos) << status.message();
+  }
+}
+
+// RootSIFT rows are the square roots of the plain rows' L1-normalised values: unit L2,
+// non-negative, on the same keypoints.
+TEST(ExtractorTest, RootSiftIsTheRootOfTheL1NormalisedRow) {
+  const Frame frame = TourFrame();
+  ExtractorOptions root;
+  root.root_sift = true;
+  auto plain = FeatureExtractor::Create({})->ExtractTour(frame.image);
+  auto rooted = FeatureExtractor::Create(root)->ExtractTour(frame.image);
+  ASSERT_TRUE(plain.ok() && rooted.ok());
+  ASSERT_EQ(plain->size(), rooted->size());
+  ASSERT_GT(plain->size(), 0);
+  for (int i = 0; i < plain->size(); i += 17) {
+    const auto p = plain->local.row(i);
+    const auto r = rooted->local.row(i);
+    EXPECT_NEAR(r.norm(), 1.0f, 1e-4);
+    for (int j = 0; j < kDescriptorSize; ++j) {
+      EXPECT_NEAR(r(j), std::sqrt(p(j) / p.sum()), 1e-4) << "row " << i << ", value " << j;
+    }
+  }
+}
+
+// Local contrast equalisation changes what SIFT sees but not the holistic descriptor,
+// which is taken from the frame before it.
+TEST(ExtractorTest, EqualisationLeavesTheHolisticDescriptor) {
+  const Frame frame = TourFrame();
+  ExtractorOptions clahe;
+  clahe.clahe_clip = 4;
+  auto plain = FeatureExtractor::Create({})->ExtractTour(frame.image);
+  auto equalised = FeatureExtractor::Create(clahe)->ExtractTour(frame.image);
+  ASSERT_TRUE(plain.ok() && equalised.ok());
+  EXPECT_EQ(plain->holistic, equalised->holistic);
+  EXPECT_FALSE(plain->size() == equalised->size() && plain->local.isApprox(equalised->local));
+}
+
+// An image that is not 8-bit is refused.
+TEST(ExtractorTest, RefusesImagesThatAreNot8Bit) {
+  auto f = FeatureExtractor::Create({})->ExtractTour(cv::Mat(100, 100, CV_16UC1, cv::Scalar(9)));
+  EXPECT_EQ(f.status().code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(f.status().message().find("8-bit"), std::string::npos);
+}
+
+// Decoding refuses empty bytes, bytes that are no image, images over the side limit and a
+// reduction other than 1, 2, 4 or 8; reading refuses a missing file.
+TEST(ExtractorTest, DecodeAndReadRefuseBadInput) {
+  EXPECT_EQ(DecodeImage("", 4096).status().code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(DecodeImage("definitely not a jpeg", 4096).status().code(),
+            StatusCode::kInvalidArgument);
+  TourOptions tour;
+  tour.num_locations = 1;
+  auto jpegs = RenderTourJpegs(tour, kTrainingPass);
+  ASSERT_TRUE(jpegs.ok());
+  EXPECT_EQ(DecodeImage((*jpegs)[0], 100).status().code(), StatusCode::kResourceExhausted);
+  EXPECT_EQ(DecodeGray((*jpegs)[0], 4096, 3).status().code(), StatusCode::kInvalidArgument);
+  const StatusOr<cv::Mat> gray = DecodeGray((*jpegs)[0], 4096, 1);
+  ASSERT_TRUE(gray.ok());
+  EXPECT_EQ(gray->channels(), 1);
+  EXPECT_EQ(ReadImageFile("/nonexistent/image.jpg").status().code(), StatusCode::kNotFound);
+}
+
 }  // namespace
 }  // namespace sceneloc

@@ -197,16 +197,6 @@ TEST_F(MapIoTest, HeaderMatchesDocumentedLayout) {
   EXPECT_EQ(GetU32(bytes, 32), 777u);
 }
 
-// CRC-32 matches the standard check value and can be computed in pieces.
-TEST(Crc32Test, MatchesStandardCheckValue) {
-  const std::string text = "123456789";
-  EXPECT_EQ(Crc32(text.data(), text.size()), 0xCBF43926u);
-  EXPECT_EQ(Crc32(nullptr, 0), 0u);
-  const std::string long_text(1000, 'x');
-  EXPECT_EQ(Crc32(long_text.data() + 3, 997, Crc32(long_text.data(), 3)),
-            Crc32(long_text.data(), 1000));
-}
-
 // A successful save leaves only the map file: no temporary file behind.
 TEST_F(MapIoTest, SaveLeavesNoTemporaryFile) {
   ASSERT_TRUE(SaveMap(MakeRandomMap(5, 30, 1), path_).ok());

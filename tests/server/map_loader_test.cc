@@ -1,4 +1,4 @@
-// MapLoader and DirWatcher: loads on the loader thread, the watched folder followed
+// MapLoader: loads on the loader thread, the watched folder followed
 // (new, replaced, bad, deleted and temporary files), bursts coalesced, SIGHUP's reload-all.
 #include "server/map_loader.h"
 
@@ -11,7 +11,6 @@
 #include <thread>
 
 #include "common/map/map_io.h"
-#include "server/dir_watcher.h"
 #include "tests/server/server_test_support.h"
 
 namespace sceneloc {
@@ -54,23 +53,6 @@ class MapLoaderTest : public ::testing::Test {
   test::TempMapsDir dir_{"loader"};
   MapRegistry registry_{MapRegistry::Options()};
 };
-
-// Only <stem>.scnl names a map: SaveMap's temporaries and hidden files do not.
-TEST(DirWatcherTest, MapNameOfFile) {
-  EXPECT_EQ(MapNameOfFile("site.scnl"), "site");
-  EXPECT_EQ(MapNameOfFile("site.v2.scnl"), "site.v2");
-  EXPECT_EQ(MapNameOfFile("site.scnl.tmp.1234"), "");
-  EXPECT_EQ(MapNameOfFile(".site.scnl"), "");
-  EXPECT_EQ(MapNameOfFile(".scnl"), "");
-  EXPECT_EQ(MapNameOfFile("notes.txt"), "");
-}
-
-// A folder that does not exist cannot be watched, and says which.
-TEST(DirWatcherTest, MissingFolderIsAnError) {
-  auto watcher = DirWatcher::Open("/nonexistent/maps");
-  ASSERT_FALSE(watcher.ok());
-  EXPECT_NE(watcher.status().message().find("/nonexistent/maps"), std::string::npos);
-}
 
 // Reload runs on the loader thread and hands the result to `done`: the new snapshot, or
 // the load's error with the old map still serving.

@@ -1,62 +1,23 @@
 // The operator endpoint over real HTTP on loopback: Prometheus metrics that count what a
 // real server did, the liveness and readiness probes following its state (maps, shutdown,
 // a worker's broker), and the errors an operator can cause (a taken port, a bad address).
-#include <arpa/inet.h>
 #include <gtest/gtest.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <unistd.h>
 
 #include <filesystem>
-#include <stdexcept>
-#include <thread>
 
 #include "client/client.h"
 #include "server/broker.h"
 #include "server/health.h"
 #include "server/http_endpoint.h"
+#include "tests/server/http_test_client.h"
 #include "tests/server/server_test_support.h"
 
 namespace sceneloc {
 namespace {
 
+using test::Http;
+using test::HttpResult;
 using test::kTestMapName;
-
-struct HttpResult {
-  int status = 0;
-  std::string headers;
-  std::string body;
-};
-
-// One HTTP/1.1 request to HOST:PORT over a plain TCP socket, read to the end.
-HttpResult Http(const std::string& address, const std::string& method, const std::string& path) {
-  const size_t colon = address.rfind(':');
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_port = htons(static_cast<uint16_t>(std::stoi(address.substr(colon + 1))));
-  inet_pton(AF_INET, address.substr(0, colon).c_str(), &addr.sin_addr);
-  const int fd = socket(AF_INET, SOCK_STREAM, 0);
-  HttpResult result;
-  if (connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) != 0) {
-    close(fd);
-    return result;
-  }
-  const std::string request =
-      method + " " + path + " HTTP/1.1\r\nHost: " + address + "\r\nConnection: close\r\n\r\n";
-  (void)send(fd, request.data(), request.size(), 0);
-  std::string response;
-  char buffer[4096];
-  for (ssize_t n; (n = recv(fd, buffer, sizeof(buffer), 0)) > 0;) {
-    response.append(buffer, static_cast<size_t>(n));
-  }
-  close(fd);
-  const size_t end_of_headers = response.find("\r\n\r\n");
-  if (response.rfind("HTTP/1.1 ", 0) != 0 || end_of_headers == std::string::npos) return result;
-  result.status = std::stoi(response.substr(9, 3));
-  result.headers = response.substr(0, end_of_headers);
-  result.body = response.substr(end_of_headers + 4);
-  return result;
-}
 
 HttpResult Get(const Server& server, const std::string& path) {
   return Http(server.metrics_endpoint(), "GET", path);
@@ -203,46 +164,6 @@ TEST(OperatorEndpointTest, AMalformedAddressIsRefusedWithTheSettingsName) {
     EXPECT_EQ(status.code(), StatusCode::kInvalidArgument) << bad;
     EXPECT_TRUE(Contains(status.message(), "server.metrics_endpoint")) << status.message();
   }
-}
-
-TEST(HttpEndpointTest, ServesGetOnItsPathsOnly) {
-  std::map<std::string, HttpEndpoint::Handler> handlers;
-  handlers["/ok"] = [] { return HttpResponse{200, "text/plain", "fine"}; };
-  handlers["/throws"] = []() -> HttpResponse { throw std::runtime_error("handler broke"); };
-  auto endpoint = HttpEndpoint::Start("127.0.0.1:0", handlers);
-  ASSERT_TRUE(endpoint.ok()) << endpoint.status().ToString();
-  const std::string address = (*endpoint)->address();
-  EXPECT_NE(address, "127.0.0.1:0");
-  const HttpResult ok = Http(address, "GET", "/ok");
-  EXPECT_EQ(ok.status, 200);
-  EXPECT_EQ(ok.body, "fine");
-  EXPECT_EQ(Http(address, "POST", "/ok").status, 405);
-  const HttpResult missing = Http(address, "GET", "/nothing-here");
-  EXPECT_EQ(missing.status, 404);
-  EXPECT_TRUE(Contains(missing.body, "/ok")) << missing.body;  // says what is served
-  const HttpResult broken = Http(address, "GET", "/throws");
-  EXPECT_EQ(broken.status, 500);
-  EXPECT_TRUE(Contains(broken.body, "handler broke"));
-  (*endpoint)->Stop();
-  EXPECT_EQ(Http(address, "GET", "/ok").status, 0);  // nothing listens any more
-}
-
-TEST(HealthTest, ProbesSayWhatIsMissing) {
-  ServerHealth health;
-  health.maps_loaded = 2;
-  EXPECT_EQ(Readiness(health).status, 200);
-  health.draining = true;
-  EXPECT_EQ(Readiness(health).status, 503);
-  EXPECT_EQ(Liveness(health).status, 200);
-  health.draining = false;
-  health.worker_mode = true;
-  health.broker = "tcp://broker:5556";
-  EXPECT_TRUE(Contains(Readiness(health).body, "tcp://broker:5556"));
-  health.broker_connected = true;
-  EXPECT_EQ(Readiness(health).status, 200);
-  health.io_silence = kMaxIoSilence + std::chrono::seconds(1);
-  EXPECT_EQ(Liveness(health).status, 503);
-  EXPECT_EQ(Readiness(health).status, 503);
 }
 
 }  // namespace

@@ -1,0 +1,152 @@
+// The payload layout of a map file (map_io.h), written down once as Transfer functions
+// that a PayloadWriter (const fields) and a PayloadReader (mutable fields) both walk
+// (payload_archive.h), for format version 2 and for version 1, which is still read.
+// Keep it in step with the layout documented in map_io.h. Internal to map_io.
+//
+// Thread-safe: free functions without shared state.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <type_traits>
+
+#include "common/map/map.h"
+
+namespace sceneloc::map_io_internal {
+
+static_assert(std::numeric_limits<float>::is_iec559 && std::numeric_limits<double>::is_iec559);
+static_assert(sizeof(int) == 4, "the format stores int fields as i32");
+static_assert(std::is_trivially_copyable_v<Neighbour> && sizeof(Neighbour) == 32 &&
+                  offsetof(Neighbour, cooccurrence) == 4 && offsetof(Neighbour, angle_dmax) == 28,
+              "Neighbour is copied as the 32-byte record of map_io.h");
+// A new option must be stored too: add it to TransferOptions, to the layout in
+// map_io.h and to the round-trip test, bump kMapFormatVersion, then update these sizes.
+static_assert(sizeof(void*) != 8 || sizeof(ExtractorOptions) == 80,
+              "ExtractorOptions changed: update the map file format");
+static_assert(sizeof(void*) != 8 || sizeof(TrainOptions) == 216,
+              "TrainOptions changed: update the map file format");
+
+// Fields of format version 1 that later versions store differently; read, then converted
+// by UpgradeV1 once the map's frame is known.
+struct V1Fields {
+  double image_scale = 0;          // now: extractor.working_size
+  double ransac_threshold_px = 0;  // now: ransac_threshold, a fraction of the frame
+  double distance_var_floor = 0;   // now: distance_sd_floor, a fraction of the frame
+};
+
+// The payload layout, shared by writing (Archive = PayloadWriter, const fields) and
+// reading (PayloadReader, mutable fields) of format `version`. Keep it in step with
+// map_io.h. Writing always uses kMapFormatVersion.
+template <typename Archive, typename Options, typename V1>
+void TransferOptions(Archive& a, Options& o, uint32_t version, V1& v1) {
+  const bool v2 = version >= 2;
+  a.Field("extractor.max_features", o.extractor.max_features);
+  if (v2) {
+    a.Field("extractor.working_size", o.extractor.working_size);
+  } else {
+    a.Field("extractor.image_scale", v1.image_scale);
+  }
+  a.Field("extractor.context_scale", o.extractor.context_scale);
+  a.Field("extractor.contrast_threshold", o.extractor.contrast_threshold);
+  a.Field("extractor.edge_threshold", o.extractor.edge_threshold);
+  a.Field("extractor.sigma", o.extractor.sigma);
+  a.Field("extractor.max_image_side", o.extractor.max_image_side);
+  if (v2) {
+    a.Field("extractor.clahe_clip", o.extractor.clahe_clip);
+    a.Field("extractor.root_sift", o.extractor.root_sift);
+    a.Field("extractor.holistic_cols", o.extractor.holistic.cols);
+    a.Field("extractor.holistic_cell_pixels", o.extractor.holistic.cell_pixels);
+    a.Field("extractor.holistic_bins", o.extractor.holistic.bins);
+    a.Field("extractor.holistic_max_shift", o.extractor.holistic.max_shift);
+  }
+  a.Field("track_distance_threshold", o.track_distance_threshold);
+  if (v2) {
+    a.Field("ransac_threshold", o.ransac_threshold);
+  } else {
+    a.Field("ransac_threshold_px", v1.ransac_threshold_px);
+  }
+  a.Field("ransac_confidence", o.ransac_confidence);
+  a.Field("min_links_per_pair", o.min_links_per_pair);
+  a.Field("min_track_length", o.min_track_length);
+  if (v2) a.Field("min_landmarks_per_image", o.min_landmarks_per_image);
+  a.Field("local_var_floor", o.local_var_floor);
+  a.Field("context_var_floor", o.context_var_floor);
+  if (v2) {
+    a.Field("distance_sd_floor", o.distance_sd_floor);
+  } else {
+    a.Field("distance_var_floor", v1.distance_var_floor);
+  }
+  a.Field("angle_var_floor", o.angle_var_floor);
+  a.Field("quality_s_min", o.quality_s_min);
+  a.Field("quality_fp_prior", o.quality_fp_prior);
+  a.Field("eta", o.eta);
+  a.Field("q_min", o.q_min);
+  a.Field("max_neighbours", o.max_neighbours);
+  if (v2) {
+    a.Field("tolerance", o.tolerance);
+    a.Field("confidence_temperature", o.confidence_temperature);
+    a.Field("map_evidence_slope", o.map_evidence_slope);
+    a.Field("map_evidence_offset", o.map_evidence_offset);
+  }
+}
+
+template <typename Archive, typename Provenance>
+void TransferProvenance(Archive& a, Provenance& p) {
+  a.Field("provenance.tour_dir", p.tour_dir);
+  a.Field("provenance.created_utc", p.created_utc);
+  a.Field("provenance.tool_version", p.tool_version);
+  a.Field("provenance.num_features", p.num_features);
+  a.Field("provenance.num_tracks", p.num_tracks);
+  a.Field("provenance.num_candidates", p.num_candidates);
+}
+
+template <typename Archive, typename CalibrationT>
+void TransferCalibration(Archive& a, CalibrationT& c) {
+  a.Field("calibration.valid", c.valid);
+  a.Field("calibration.off_map_distance", c.off_map_distance);
+  a.Field("calibration.off_map_spread", c.off_map_spread);
+  a.Field("calibration.samples", c.samples);
+}
+
+template <typename Archive, typename MapT, typename V1>
+void TransferMap(Archive& a, MapT& m, uint32_t version, V1& v1) {
+  TransferOptions(a, m.options, version, v1);
+  TransferProvenance(a, m.provenance);
+  if (version >= 2) TransferCalibration(a, m.calibration);
+  a.Field("image_names", m.image_names);
+  a.Field("image_width", m.image_width);
+  a.Field("image_height", m.image_height);
+  if (version >= 2) {
+    a.Field("holistic_grid.cols", m.holistic_grid.cols);
+    a.Field("holistic_grid.rows", m.holistic_grid.rows);
+    a.Field("holistic_grid.bins", m.holistic_grid.bins);
+    a.Field("holistic", m.holistic);
+  }
+  a.Field("local_mean", m.local_mean);
+  a.Field("local_dmax", m.local_dmax);
+  a.Field("local_var", m.local_var);
+  a.Field("context_mean", m.context_mean);
+  a.Field("context_dmax", m.context_dmax);
+  a.Field("context_var", m.context_var);
+  a.Field("mean_x", m.mean_x);
+  a.Field("mean_y", m.mean_y);
+  a.Field("quality", m.quality);
+  a.Field("observation_offsets", m.observation_offsets);
+  a.Field("observation_image", m.observation_image);
+  a.Field("observation_x", m.observation_x);
+  a.Field("observation_y", m.observation_y);
+  a.Field("observation_size", m.observation_size);
+  if (version >= 2) a.Field("observation_angle", m.observation_angle);
+  a.Field("neighbour_offsets", m.neighbour_offsets);
+  a.Field("neighbours", m.neighbours);
+  a.Field("image_offsets", m.image_offsets);
+  a.Field("image_landmarks", m.image_landmarks);
+}
+
+// A version-1 map in today's terms: its working frame is the frame it was made in, its
+// pixel settings become fractions of that frame, and it has no holistic descriptors and
+// no coverage rule. Leaves a settings error for Validate() to report.
+void UpgradeV1(const V1Fields& v1, Map* map);
+
+}  // namespace sceneloc::map_io_internal

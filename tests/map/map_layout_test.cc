@@ -1,0 +1,105 @@
+// The payload layout of map files (common/map/map_layout.h): both format versions walked
+// by a writer and a reader, the order of the first fields, and the version-1 upgrade.
+#include "common/map/map_layout.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <string>
+
+#include "common/map/payload_archive.h"
+#include "tests/support/test_map.h"
+
+namespace sceneloc::map_io_internal {
+namespace {
+
+std::string Write(const Map& map, uint32_t version, const V1Fields& v1 = {}) {
+  std::string bytes;
+  PayloadWriter writer(&bytes);
+  TransferMap(writer, map, version, v1);
+  return bytes;
+}
+
+// Reads `bytes` as a payload of `version`; expects every byte used.
+Map Read(const std::string& bytes, uint32_t version, V1Fields* v1) {
+  MemorySource source(bytes.data());
+  PayloadReader reader(&source, bytes.size());
+  Map map;
+  TransferMap(reader, map, version, *v1);
+  EXPECT_TRUE(reader.status().ok()) << reader.status().ToString();
+  EXPECT_EQ(reader.remaining(), 0u);
+  return map;
+}
+
+// A version-2 payload read back gives every stored field of the map written.
+TEST(MapLayoutTest, VersionTwoRoundTrips) {
+  const Map map = test::MakeRandomMap(6, 40, 3);
+  V1Fields unused;
+  Map read = Read(Write(map, 2), 2, &unused);
+  read.Finalize();
+  test::ExpectMapsEqual(map, read);
+}
+
+// The payload starts with extractor.max_features (i32), then working_size (i32), then
+// context_scale (f64), as map_io.h documents.
+TEST(MapLayoutTest, PayloadStartsWithTheExtractorOptions) {
+  Map map = test::MakeRandomMap(2, 5, 4);
+  map.options.extractor.max_features = 1234;
+  map.options.extractor.working_size = 321;
+  map.options.extractor.context_scale = 2.75;
+  const std::string bytes = Write(map, 2);
+  int32_t max_features = 0, working_size = 0;
+  double context_scale = 0;
+  std::memcpy(&max_features, bytes.data(), 4);
+  std::memcpy(&working_size, bytes.data() + 4, 4);
+  std::memcpy(&context_scale, bytes.data() + 8, 8);
+  EXPECT_EQ(max_features, 1234);
+  EXPECT_EQ(working_size, 321);
+  EXPECT_EQ(context_scale, 2.75);
+}
+
+// Version 1 stores the old pixel settings in place of today's and leaves out the fields
+// added later: it is shorter, and reading it gives back the old settings.
+TEST(MapLayoutTest, VersionOneStoresTheOldFields) {
+  const Map map = test::MakeRandomMap(4, 20, 5);
+  const V1Fields old{1.0, 2.5, 400.0};
+  const std::string v1_bytes = Write(map, 1, old);
+  EXPECT_LT(v1_bytes.size(), Write(map, 2).size());
+  V1Fields read_old;
+  const Map read = Read(v1_bytes, 1, &read_old);
+  EXPECT_EQ(read_old.image_scale, 1.0);
+  EXPECT_EQ(read_old.ransac_threshold_px, 2.5);
+  EXPECT_EQ(read_old.distance_var_floor, 400.0);
+  EXPECT_EQ(read.image_names, map.image_names);
+  EXPECT_TRUE(read.observation_angle.empty());
+  EXPECT_FALSE(read.calibration.valid);
+}
+
+// UpgradeV1 makes the frame the map was made in its working frame and turns pixel
+// settings into fractions of its long side.
+TEST(MapLayoutTest, UpgradeV1ConvertsPixelsToFractionsOfTheFrame) {
+  Map map;
+  map.image_width = 640;
+  map.image_height = 480;
+  map.options.extractor.holistic.cols = 16;
+  map.options.min_landmarks_per_image = 40;
+  UpgradeV1(V1Fields{1.0, 2.0, 400.0}, &map);
+  EXPECT_EQ(map.options.extractor.working_size, 640);
+  EXPECT_DOUBLE_EQ(map.options.ransac_threshold, 2.0 / 640);
+  EXPECT_DOUBLE_EQ(map.options.distance_sd_floor, 20.0 / 640);
+  EXPECT_EQ(map.options.extractor.holistic.cols, 0);
+  EXPECT_EQ(map.options.min_landmarks_per_image, 0);
+}
+
+// A negative variance floor (a corrupt but checksummed file) becomes 0, not NaN.
+TEST(MapLayoutTest, UpgradeV1FloorsNegativeVariance) {
+  Map map;
+  map.image_width = 320;
+  map.image_height = 180;
+  UpgradeV1(V1Fields{1.0, 1.0, -5.0}, &map);
+  EXPECT_EQ(map.options.distance_sd_floor, 0.0);
+}
+
+}  // namespace
+}  // namespace sceneloc::map_io_internal
