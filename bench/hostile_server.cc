@@ -22,7 +22,6 @@
 #include <fstream>
 #include <functional>
 #include <map>
-#include <mutex>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
@@ -31,6 +30,8 @@
 
 #include "client/client.h"
 #include "common/map/map_io.h"
+#include "common/util/mutex.h"
+#include "common/util/thread_annotations.h"
 #include "proto/wire.h"
 
 namespace sceneloc {
@@ -118,8 +119,8 @@ class GoodClient {
   // failure's message.
   std::vector<double> Latencies(Clock::time_point from, Clock::time_point to, int* failures,
                                 std::string* first_error = nullptr,
-                                int* overload_retries = nullptr) const {
-    std::lock_guard<std::mutex> lock(mutex_);
+                                int* overload_retries = nullptr) const EXCLUDES(mutex_) {
+    MutexLock lock(&mutex_);
     std::vector<double> out;
     *failures = 0;
     if (overload_retries != nullptr) *overload_retries = 0;
@@ -141,13 +142,13 @@ class GoodClient {
     std::string error;  // why it failed
     int64_t overload_retries;
   };
-  void Run() {
+  void Run() EXCLUDES(mutex_) {
     while (!stop_) {
       const Clock::time_point start = Clock::now();
       const int64_t retries_before = client_->overload_retries();
       const auto reply = client_->Localise("gp", jpeg_);
       {
-        std::lock_guard<std::mutex> lock(mutex_);
+        MutexLock lock(&mutex_);
         calls_.push_back({start, Ms(Clock::now() - start), reply.ok(),
                           reply.ok() ? std::string() : reply.status().message(),
                           client_->overload_retries() - retries_before});
@@ -155,10 +156,15 @@ class GoodClient {
       std::this_thread::sleep_until(start + std::chrono::milliseconds(500));
     }
   }
-  std::string jpeg_;
+  // Constant after construction.
+  const std::string jpeg_;
+  // Run()'s thread only, once it runs.
   std::unique_ptr<Client> client_;
-  mutable std::mutex mutex_;
-  std::vector<Call> calls_;
+
+  mutable Mutex mutex_;
+  // Guarded by mutex_.
+  std::vector<Call> calls_ GUARDED_BY(mutex_);
+
   std::atomic<bool> stop_{false};
   std::thread thread_;
 };
@@ -217,12 +223,12 @@ std::map<std::string, int> FireFromThreads(const std::string& endpoint,
                                            std::chrono::seconds wait) {
   std::map<std::string, int> total;
   std::vector<std::thread> senders;
-  std::mutex m;
+  Mutex mutex;  // guards total
   for (int c = 0; c < connections; ++c) {
     senders.emplace_back([&] {
       zmq::context_t own;
       auto s = Fire(own, endpoint, batch, true, true, wait);
-      std::lock_guard<std::mutex> lock(m);
+      MutexLock lock(&mutex);
       for (auto& [k, v] : s) total[k] += v;
     });
   }

@@ -8,12 +8,13 @@
 #include <cmath>
 #include <cstring>
 #include <map>
-#include <mutex>
 #include <optional>
 #include <thread>
 #include <vector>
 #include <zmq.hpp>
 
+#include "common/util/mutex.h"
+#include "common/util/thread_annotations.h"
 #include "common/util/thread_pool.h"
 #include "proto/sceneloc.pb.h"
 #include "proto/wire.h"
@@ -240,7 +241,7 @@ class ZmqServer final : public Server {
     return Status::Ok();
   }
 
-  Status StartThreads() {
+  Status StartThreads() EXCLUDES(shutdown_mutex_) {
     MapLoader::Options loader_options;
     loader_options.maps_dir = options_.maps_dir;
     loader_options.watch = options_.watch_maps;
@@ -251,6 +252,7 @@ class ZmqServer final : public Server {
     loader_ = std::move(loader).value();
     for (int i = 0; i < options_.threads; ++i) workers_.emplace_back([this] { WorkerLoop(); });
     // The sockets move to the I/O thread here; thread creation orders the accesses.
+    MutexLock lock(&shutdown_mutex_);
     io_thread_ = std::thread([this] { IoLoop(); });
     return Status::Ok();
   }
@@ -282,8 +284,8 @@ class ZmqServer final : public Server {
     return loader_->WaitIdle(timeout);
   }
 
-  void Shutdown() override {
-    std::lock_guard<std::mutex> lock(shutdown_mutex_);
+  void Shutdown() override EXCLUDES(shutdown_mutex_) {
+    MutexLock lock(&shutdown_mutex_);
     if (!io_thread_.joinable()) return;
     draining_ = true;  // readiness fails from now on; liveness holds until the end
     try {
@@ -976,8 +978,8 @@ class ZmqServer final : public Server {
   std::string endpoint_;  // constant after Bind()
   std::vector<std::thread> workers_;
   std::unique_ptr<MapLoader> loader_;  // set by StartThreads(); stopped by FinishDrain()
-  std::mutex shutdown_mutex_;
-  std::thread io_thread_;  // guarded by shutdown_mutex_ after StartThreads()
+  Mutex shutdown_mutex_;               // serialises Shutdown() calls
+  std::thread io_thread_ GUARDED_BY(shutdown_mutex_);
   // The operator endpoint (options.metrics_endpoint); declared last so that it stops
   // first, before anything its handlers read.
   std::unique_ptr<HttpEndpoint> http_;
