@@ -1,6 +1,14 @@
 # Warnings and sanitizers for sceneloc's own targets only (never for dependencies).
+#
+# Under clang, the thread-safety analysis (common/util/thread_annotations.h) runs on every
+# target and its findings are errors: a member annotated GUARDED_BY(mutex_) read or written
+# without mutex_ held does not compile. scripts/sanitize.sh builds with clang, so CI checks
+# it; g++ ignores the annotations.
 function(sceneloc_target_options target)
   target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic)
+  if(CMAKE_CXX_COMPILER_ID MATCHES "Clang")
+    target_compile_options(${target} PRIVATE -Wthread-safety -Werror=thread-safety)
+  endif()
 endfunction()
 
 set(_sanitizers "")

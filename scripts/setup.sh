@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Installs every Debian 12 package sceneloc needs to build, test and run.
 # Idempotent: packages already present are left alone. Run as root (or with sudo).
-# Usage: scripts/setup.sh [--plots] [--fuzz]
+# Usage: scripts/setup.sh [--plots] [--clang] [--fuzz]
 #   --plots  adds what the evaluation scripts plot with: python3-matplotlib, numpy, scipy
-#   --fuzz   adds clang and its sanitizer and libFuzzer runtimes (scripts/fuzz.sh)
+#   --clang  adds clang and its sanitizer runtimes (scripts/sanitize.sh)
+#   --fuzz   the same as --clang: libFuzzer comes with them (scripts/fuzz.sh)
 set -euo pipefail
 
 packages=(
@@ -22,8 +23,8 @@ packages=(
 for arg in "$@"; do
   case $arg in
     --plots) packages+=(python3-matplotlib python3-numpy python3-scipy) ;;
-    --fuzz) packages+=(clang libclang-rt-14-dev) ;;
-    *) echo "setup: unknown option '$arg' (--plots, --fuzz)" >&2; exit 2 ;;
+    --clang | --fuzz) packages+=(clang libclang-rt-14-dev) ;;
+    *) echo "setup: unknown option '$arg' (--plots, --clang, --fuzz)" >&2; exit 2 ;;
   esac
 done
 

@@ -8,9 +8,11 @@
 #include <condition_variable>
 #include <cstddef>
 #include <deque>
-#include <mutex>
 #include <optional>
 #include <vector>
+
+#include "common/util/mutex.h"
+#include "common/util/thread_annotations.h"
 
 namespace sceneloc {
 
@@ -21,9 +23,9 @@ class BoundedQueue {
   explicit BoundedQueue(size_t capacity) : capacity_(capacity) {}
 
   // Appends `item` unless the queue is full or closed; on failure `item` is untouched.
-  bool TryPush(T& item) {
+  bool TryPush(T& item) EXCLUDES(mutex_) {
     {
-      std::lock_guard<std::mutex> lock(mutex_);
+      MutexLock lock(&mutex_);
       if (closed_ || items_.size() >= capacity_) return false;
       items_.push_back(std::move(item));
     }
@@ -33,9 +35,9 @@ class BoundedQueue {
 
   // Waits for an item; nullopt once the queue is closed (items left in it at Close() are
   // returned by Close, not here).
-  std::optional<T> Pop() {
-    std::unique_lock<std::mutex> lock(mutex_);
-    cv_.wait(lock, [this] { return closed_ || !items_.empty(); });
+  std::optional<T> Pop() EXCLUDES(mutex_) {
+    MutexLock lock(&mutex_);
+    while (!closed_ && items_.empty()) lock.Wait(cv_);
     if (closed_) return std::nullopt;
     T item = std::move(items_.front());
     items_.pop_front();
@@ -43,10 +45,10 @@ class BoundedQueue {
   }
 
   // Wakes every Pop() and refuses further pushes; returns the items nobody took.
-  std::vector<T> Close() {
+  std::vector<T> Close() EXCLUDES(mutex_) {
     std::vector<T> left;
     {
-      std::lock_guard<std::mutex> lock(mutex_);
+      MutexLock lock(&mutex_);
       closed_ = true;
       for (T& item : items_) left.push_back(std::move(item));
       items_.clear();
@@ -55,18 +57,20 @@ class BoundedQueue {
     return left;
   }
 
-  size_t size() const {
-    std::lock_guard<std::mutex> lock(mutex_);
+  size_t size() const EXCLUDES(mutex_) {
+    MutexLock lock(&mutex_);
     return items_.size();
   }
 
  private:
+  // Constant after construction.
   const size_t capacity_;
-  mutable std::mutex mutex_;
-  std::condition_variable cv_;
+
+  mutable Mutex mutex_;
+  std::condition_variable cv_;  // signalled when an item is pushed or the queue closes
   // Guarded by mutex_.
-  std::deque<T> items_;
-  bool closed_ = false;
+  std::deque<T> items_ GUARDED_BY(mutex_);
+  bool closed_ GUARDED_BY(mutex_) = false;
 };
 
 }  // namespace sceneloc

@@ -2,9 +2,11 @@
 
 #include <spdlog/spdlog.h>
 
-#include <mutex>
 #include <thread>
 #include <zmq.hpp>
+
+#include "common/util/mutex.h"
+#include "common/util/thread_annotations.h"
 
 namespace sceneloc {
 namespace {
@@ -22,7 +24,9 @@ class ZmqBroker final : public Broker {
 
   ~ZmqBroker() override { Stop(); }
 
-  Status Bind() {
+  Status Bind() EXCLUDES(stop_mutex_) {
+    // Nothing else runs yet; the lock is for the analysis (stop_ and thread_ are Stop()'s).
+    MutexLock lock(&stop_mutex_);
     std::string where;
     try {
       where = options_.frontend;
@@ -48,8 +52,8 @@ class ZmqBroker final : public Broker {
   std::string frontend() const override { return frontend_endpoint_; }
   std::string backend() const override { return backend_endpoint_; }
 
-  void Stop() override {
-    std::lock_guard<std::mutex> lock(stop_mutex_);
+  void Stop() override EXCLUDES(stop_mutex_) {
+    MutexLock lock(&stop_mutex_);
     if (!thread_.joinable()) return;
     try {
       stop_.send(zmq::str_buffer("TERMINATE"), zmq::send_flags::none);
@@ -78,11 +82,14 @@ class ZmqBroker final : public Broker {
   zmq::socket_t frontend_;
   zmq::socket_t backend_;
   zmq::socket_t control_;
-  zmq::socket_t stop_;  // Stop()'s end of the control pair, under stop_mutex_
-  std::mutex stop_mutex_;
-  std::string frontend_endpoint_;  // constant after Bind()
+  // Constant after Bind().
+  std::string frontend_endpoint_;
   std::string backend_endpoint_;
-  std::thread thread_;
+
+  Mutex stop_mutex_;
+  // Guarded by stop_mutex_.
+  zmq::socket_t stop_ GUARDED_BY(stop_mutex_);  // Stop()'s end of the control pair
+  std::thread thread_ GUARDED_BY(stop_mutex_);  // the proxy's thread
 };
 
 }  // namespace

@@ -15,6 +15,9 @@
 #include <thread>
 #include <utility>
 
+#include "common/util/mutex.h"
+#include "common/util/thread_annotations.h"
+
 namespace sceneloc {
 namespace {
 
@@ -51,7 +54,9 @@ class CivetEndpoint final : public HttpEndpoint {
       : handlers_(std::move(handlers)) {}
   ~CivetEndpoint() override { Stop(); }
 
-  Status Listen(const std::string& address) {
+  Status Listen(const std::string& address) EXCLUDES(stop_mutex_) {
+    // Nothing else runs yet; the lock is for the analysis (context_ is Stop()'s).
+    MutexLock lock(&stop_mutex_);
     static std::once_flag library;
     std::call_once(library, [] { mg_init_library(0); });
     // Two threads: scrapes and probes are rare; a third caller waits its turn (civetweb
@@ -82,15 +87,15 @@ class CivetEndpoint final : public HttpEndpoint {
 
   std::string address() const override { return address_; }
 
-  void Stop() override {
-    std::lock_guard<std::mutex> lock(stop_mutex_);
+  void Stop() override EXCLUDES(stop_mutex_) {
+    MutexLock lock(&stop_mutex_);
     if (context_ == nullptr) return;
     // mg_stop() raises civetweb's stop flag and joins its threads; its listener notices
     // the flag only when its poll() returns, which without a connection takes up to 2 s
     // (SOCKET_TIMEOUT_QUANTUM). Connecting to it wakes it at once.
     std::atomic<bool> stopped{false};
-    std::thread stopper([this, &stopped] {
-      mg_stop(context_);
+    std::thread stopper([context = context_, &stopped] {
+      mg_stop(context);
       stopped = true;
     });
     while (!stopped) {
@@ -140,11 +145,15 @@ class CivetEndpoint final : public HttpEndpoint {
     close(fd);
   }
 
+  // Constant after construction.
   const std::map<std::string, Handler> handlers_;
-  std::mutex stop_mutex_;
-  mg_context* context_ = nullptr;
+  // Constant after Listen().
   std::string address_;
   uint16_t port_ = 0;
+
+  Mutex stop_mutex_;
+  // Guarded by stop_mutex_.
+  mg_context* context_ GUARDED_BY(stop_mutex_) = nullptr;  // null before Listen(), after Stop()
 };
 
 }  // namespace

@@ -52,7 +52,10 @@ StatusOr<std::unique_ptr<MapLoader>> MapLoader::Start(const Options& options,
   const int wake_fd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
   if (wake_fd < 0) return IoError(std::string("map loader: eventfd: ") + std::strerror(errno));
   std::unique_ptr<MapLoader> loader(new MapLoader(options, registry, wake_fd, std::move(watcher)));
-  loader->thread_ = std::thread([l = loader.get()] { l->Loop(); });
+  {
+    MutexLock lock(&loader->stop_mutex_);
+    loader->thread_ = std::thread([l = loader.get()] { l->Loop(); });
+  }
   return loader;
 }
 
@@ -73,7 +76,7 @@ void MapLoader::Wake() {
 
 MapLoader::Queued MapLoader::Reload(const std::string& map, Done done) {
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     if (stopping_) return Queued::kStopping;
     if (waiting_ >= options_.max_waiting_reloads) return Queued::kOverloaded;
     ++waiting_;
@@ -92,7 +95,7 @@ MapLoader::Queued MapLoader::Reload(const std::string& map, Done done) {
 
 void MapLoader::ReloadAll() {
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     if (stopping_) return;
     const bool queued = std::any_of(tasks_.begin(), tasks_.end(),
                                     [](const Task& task) { return task.map.empty(); });
@@ -103,18 +106,21 @@ void MapLoader::ReloadAll() {
 }
 
 bool MapLoader::WaitIdle(std::chrono::milliseconds timeout) {
-  std::unique_lock<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   const uint64_t wanted = ++idle_wanted_;
   Wake();
-  return idle_cv_.wait_for(lock, timeout, [&] { return idle_seen_ >= wanted || stopping_; }) &&
-         idle_seen_ >= wanted;
+  const Clock::time_point deadline = Clock::now() + timeout;
+  while (idle_seen_ < wanted && !stopping_) {
+    if (!lock.WaitUntil(idle_cv_, deadline)) break;
+  }
+  return idle_seen_ >= wanted;
 }
 
 void MapLoader::Stop() {
-  std::lock_guard<std::mutex> stop_lock(stop_mutex_);
+  MutexLock stop_lock(&stop_mutex_);
   if (!thread_.joinable()) return;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     stopping_ = true;
   }
   Wake();
@@ -139,7 +145,7 @@ void MapLoader::Loop() {
 
     uint64_t idle_wanted;
     {
-      std::lock_guard<std::mutex> lock(mutex_);
+      MutexLock lock(&mutex_);
       if (stopping_) break;
       idle_wanted = idle_wanted_;  // taken before the events are read: they count
     }
@@ -150,7 +156,7 @@ void MapLoader::Loop() {
     // for one load at most.
     if (std::optional<Task> task = NextTask()) RunTask(*task);
 
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     if (due_.empty() && tasks_.empty() && idle_seen_ < idle_wanted) {
       idle_seen_ = idle_wanted;
       idle_cv_.notify_all();
@@ -158,7 +164,7 @@ void MapLoader::Loop() {
   }
   std::deque<Task> cancelled;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     cancelled.swap(tasks_);
   }
   for (Task& task : cancelled) {
@@ -168,7 +174,7 @@ void MapLoader::Loop() {
 
 int MapLoader::PollTimeoutMs() const {
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     if (!tasks_.empty() || stopping_) return 0;  // more work queued: do not sleep
   }
   Clock::time_point next = rewatch_at_;
@@ -223,7 +229,7 @@ void MapLoader::TryRewatch() {
 }
 
 std::optional<MapLoader::Task> MapLoader::NextTask() {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   if (stopping_ || tasks_.empty()) return std::nullopt;
   Task task = std::move(tasks_.front());
   tasks_.pop_front();
@@ -232,7 +238,7 @@ std::optional<MapLoader::Task> MapLoader::NextTask() {
 }
 
 bool MapLoader::Stopping() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   return stopping_;
 }
 

@@ -37,13 +37,14 @@
 #include <functional>
 #include <map>
 #include <memory>
-#include <mutex>
 #include <optional>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "common/util/mutex.h"
 #include "common/util/status.h"
+#include "common/util/thread_annotations.h"
 #include "server/dir_watcher.h"
 #include "server/map_registry.h"
 
@@ -83,19 +84,19 @@ class MapLoader {
   // `done` runs on the loader thread with the new snapshot or the error (or null if
   // Stop() comes first). See Queued for when `done` is dropped uncalled.
   // REQUIRES: `map` is a plain file stem (no '/', not starting with '.').
-  Queued Reload(const std::string& map, Done done);
+  Queued Reload(const std::string& map, Done done) EXCLUDES(mutex_);
 
   // Queues a reload of every map file in the folder (SIGHUP); maps served without a file
   // there any more are unloaded.
-  void ReloadAll();
+  void ReloadAll() EXCLUDES(mutex_);
 
   // Waits until everything queued, and every folder event the kernel had queued, before
   // the call has been acted on (debounce included). False at the timeout.
-  bool WaitIdle(std::chrono::milliseconds timeout);
+  bool WaitIdle(std::chrono::milliseconds timeout) EXCLUDES(mutex_);
 
   // Finishes the load in progress, answers the queued Reload()s with null, and
   // joins the thread. Idempotent.
-  void Stop();
+  void Stop() EXCLUDES(stop_mutex_, mutex_);
 
  private:
   using Clock = std::chrono::steady_clock;
@@ -107,10 +108,10 @@ class MapLoader {
   MapLoader(const Options& options, MapRegistry* registry, int wake_fd,
             std::unique_ptr<DirWatcher> watcher);
   void Wake();
-  void Loop();
-  std::optional<Task> NextTask();  // null when none is queued or when stopping
-  bool Stopping() const;
-  int PollTimeoutMs() const;
+  void Loop() EXCLUDES(mutex_);
+  std::optional<Task> NextTask() EXCLUDES(mutex_);  // null when none is queued or when stopping
+  bool Stopping() const EXCLUDES(mutex_);
+  int PollTimeoutMs() const EXCLUDES(mutex_);
   void ReadWatchEvents();
   void TryRewatch();
   void RescanFolder(Clock::time_point due);
@@ -130,17 +131,19 @@ class MapLoader {
   Clock::time_point rewatch_at_ = Clock::time_point::max();  // next attempt after a loss
   std::map<std::string, Clock::time_point> due_;  // map -> when to act on its file events
 
-  mutable std::mutex mutex_;
-  std::condition_variable idle_cv_;
+  mutable Mutex mutex_;
+  std::condition_variable idle_cv_;  // signalled when idle_seen_ grows, and at Stop()
   // Guarded by mutex_.
-  std::deque<Task> tasks_;  // at most one per map (and one folder task)
-  size_t waiting_ = 0;      // Done callbacks in tasks_
-  bool stopping_ = false;
-  uint64_t idle_wanted_ = 0;  // WaitIdle calls so far
-  uint64_t idle_seen_ = 0;    // WaitIdle calls whose events and tasks are all handled
+  std::deque<Task> tasks_ GUARDED_BY(mutex_);  // at most one per map (and one folder task)
+  size_t waiting_ GUARDED_BY(mutex_) = 0;      // Done callbacks in tasks_
+  bool stopping_ GUARDED_BY(mutex_) = false;
+  uint64_t idle_wanted_ GUARDED_BY(mutex_) = 0;  // WaitIdle calls so far
+  // WaitIdle calls whose events and tasks are all handled.
+  uint64_t idle_seen_ GUARDED_BY(mutex_) = 0;
 
-  std::mutex stop_mutex_;
-  std::thread thread_;  // guarded by stop_mutex_ after Start()
+  // Serialises Stop() calls; taken before mutex_.
+  Mutex stop_mutex_ ACQUIRED_BEFORE(mutex_);
+  std::thread thread_ GUARDED_BY(stop_mutex_);  // the loader thread
 };
 
 }  // namespace sceneloc

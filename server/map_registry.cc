@@ -16,13 +16,13 @@ namespace fs = std::filesystem;
 MapRegistry::MapRegistry(const Options& options) : options_(options) {}
 
 std::shared_ptr<const LoadedMap> MapRegistry::Get(const std::string& name) const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   const auto it = maps_.find(name);
   return it == maps_.end() ? nullptr : it->second;
 }
 
 std::vector<std::shared_ptr<const LoadedMap>> MapRegistry::List() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   std::vector<std::shared_ptr<const LoadedMap>> out;
   for (const auto& entry : maps_) out.push_back(entry.second);
   return out;
@@ -32,16 +32,17 @@ Status MapRegistry::SelfTest(const Map& map) const {
   return SelfTestMap(map, options_.self_test, options_.self_test_locations);
 }
 
+Status MapRegistry::CountFailure(Status status) {
+  MutexLock lock(&mutex_);
+  ++load_failures_;
+  return status;
+}
+
 StatusOr<std::shared_ptr<const LoadedMap>> MapRegistry::Load(const std::string& path) {
-  std::lock_guard<std::mutex> load_lock(load_mutex_);
-  auto fail = [this](Status s) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    ++load_failures_;
-    return s;
-  };
+  MutexLock load_lock(&load_mutex_);
   const std::string name = fs::path(path).stem().string();
   if (const std::string problem = MapNameProblem(name); !problem.empty()) {
-    return fail(InvalidArgument("'" + path + "' cannot be served: " + problem));
+    return CountFailure(InvalidArgument("'" + path + "' cannot be served: " + problem));
   }
   MapFileInfo info;
   StatusOr<Map> map = Internal("not loaded");
@@ -51,12 +52,13 @@ StatusOr<std::shared_ptr<const LoadedMap>> MapRegistry::Load(const std::string& 
     map = LoadMap(path, &info, options_.load);
     if (map.ok()) tested = SelfTest(*map);
   } catch (const std::bad_alloc&) {
-    return fail(ResourceExhausted("map file '" + path + "': out of memory while loading it"));
+    return CountFailure(
+        ResourceExhausted("map file '" + path + "': out of memory while loading it"));
   } catch (const std::exception& e) {
-    return fail(Internal("map file '" + path + "': unexpected exception: " + e.what()));
+    return CountFailure(Internal("map file '" + path + "': unexpected exception: " + e.what()));
   }
-  if (!map.ok()) return fail(map.status());
-  if (!tested.ok()) return fail(FailedPrecondition(path + ": " + tested.message()));
+  if (!map.ok()) return CountFailure(map.status());
+  if (!tested.ok()) return CountFailure(FailedPrecondition(path + ": " + tested.message()));
 
   auto loaded = std::make_shared<LoadedMap>();
   loaded->name = name;
@@ -68,7 +70,7 @@ StatusOr<std::shared_ptr<const LoadedMap>> MapRegistry::Load(const std::string& 
   loaded->sequence =
       std::make_unique<const SequenceFilter>(loaded->map, options_.self_test.sequence);
 
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   loaded->generation = ++generations_[name];
   ++loads_;
   std::shared_ptr<const LoadedMap> snapshot = std::move(loaded);
@@ -77,9 +79,9 @@ StatusOr<std::shared_ptr<const LoadedMap>> MapRegistry::Load(const std::string& 
 }
 
 bool MapRegistry::Remove(const std::string& name) {
-  std::lock_guard<std::mutex> load_lock(load_mutex_);
+  MutexLock load_lock(&load_mutex_);
   std::shared_ptr<const LoadedMap> dropped;  // freed after the lock, if no request holds it
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   const auto it = maps_.find(name);
   if (it == maps_.end()) return false;
   dropped = std::move(it->second);
@@ -112,17 +114,17 @@ Status MapRegistry::LoadDirectory(const std::string& dir, std::vector<Status>* f
 }
 
 uint64_t MapRegistry::loads() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   return loads_;
 }
 
 uint64_t MapRegistry::load_failures() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   return load_failures_;
 }
 
 uint64_t MapRegistry::unloads() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   return unloads_;
 }
 

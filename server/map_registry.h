@@ -16,7 +16,6 @@
 #include <cstdint>
 #include <map>
 #include <memory>
-#include <mutex>
 #include <string>
 #include <vector>
 
@@ -27,7 +26,9 @@
 #include "common/matching/localiser.h"
 #include "common/matching/self_test.h"
 #include "common/matching/sequence_filter.h"
+#include "common/util/mutex.h"
 #include "common/util/status.h"
+#include "common/util/thread_annotations.h"
 
 namespace sceneloc {
 
@@ -59,19 +60,20 @@ class MapRegistry {
   explicit MapRegistry(const Options& options);
 
   // The snapshot serving `name`, or null when there is none.
-  std::shared_ptr<const LoadedMap> Get(const std::string& name) const;
+  std::shared_ptr<const LoadedMap> Get(const std::string& name) const EXCLUDES(mutex_);
   // Every snapshot, by name.
-  std::vector<std::shared_ptr<const LoadedMap>> List() const;
+  std::vector<std::shared_ptr<const LoadedMap>> List() const EXCLUDES(mutex_);
 
   // Loads `path` and serves it as its file stem, replacing any map of that name. Errors
   // (the old map, if any, keeps serving): those of LoadMap, FailedPrecondition when the
   // self-test fails, InvalidArgument for a name that is not a plain file stem.
   // Loads of one registry run one at a time, so generations follow the swaps' order.
-  StatusOr<std::shared_ptr<const LoadedMap>> Load(const std::string& path);
+  StatusOr<std::shared_ptr<const LoadedMap>> Load(const std::string& path)
+      EXCLUDES(load_mutex_, mutex_);
 
   // Stops serving `name`; requests holding its snapshot finish on it. False when absent.
   // Waits for a Load() in progress, so a load and a removal never interleave.
-  bool Remove(const std::string& name);
+  bool Remove(const std::string& name) EXCLUDES(load_mutex_, mutex_);
 
   // Loads every *.scnl file in `dir` (in name order). Each failure is appended to
   // *failures (which may be null) and does not stop the others. The names of the other
@@ -79,25 +81,32 @@ class MapRegistry {
   // null, so an operator who named a map `lab.map` is told. Error only when `dir` cannot
   // be listed.
   Status LoadDirectory(const std::string& dir, std::vector<Status>* failures,
-                       std::vector<std::string>* ignored = nullptr);
+                       std::vector<std::string>* ignored = nullptr) EXCLUDES(load_mutex_, mutex_);
 
-  uint64_t loads() const;          // successful loads so far
-  uint64_t load_failures() const;  // failed loads so far
-  uint64_t unloads() const;        // successful Remove() calls so far
+  uint64_t loads() const EXCLUDES(mutex_);          // successful loads so far
+  uint64_t load_failures() const EXCLUDES(mutex_);  // failed loads so far
+  uint64_t unloads() const EXCLUDES(mutex_);        // successful Remove() calls so far
 
  private:
   Status SelfTest(const Map& map) const;
+  // Counts a failed load and returns `status`.
+  Status CountFailure(Status status) EXCLUDES(mutex_);
 
+  // Constant after construction.
   const Options options_;
-  std::mutex load_mutex_;  // serialises Load() calls; never held by Get()
 
-  mutable std::mutex mutex_;
+  // Serialises Load() and Remove() calls (a load and a removal never interleave); never
+  // held by Get(). Taken before mutex_.
+  Mutex load_mutex_ ACQUIRED_BEFORE(mutex_);
+
+  mutable Mutex mutex_;
   // Guarded by mutex_.
-  std::map<std::string, std::shared_ptr<const LoadedMap>> maps_;
-  std::map<std::string, uint64_t> generations_;  // kept after Remove, so numbers only grow
-  uint64_t loads_ = 0;
-  uint64_t load_failures_ = 0;
-  uint64_t unloads_ = 0;
+  std::map<std::string, std::shared_ptr<const LoadedMap>> maps_ GUARDED_BY(mutex_);
+  // Kept after Remove, so numbers only grow.
+  std::map<std::string, uint64_t> generations_ GUARDED_BY(mutex_);
+  uint64_t loads_ GUARDED_BY(mutex_) = 0;
+  uint64_t load_failures_ GUARDED_BY(mutex_) = 0;
+  uint64_t unloads_ GUARDED_BY(mutex_) = 0;
 };
 
 }  // namespace sceneloc

@@ -9,7 +9,9 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
-#include <mutex>
+
+#include "common/util/mutex.h"
+#include "common/util/thread_annotations.h"
 
 namespace sceneloc {
 
@@ -42,34 +44,37 @@ class MemoryBudget {
 
   // Reserves `bytes`, waiting until they are free or `deadline` passes (then the lease is
   // not held). REQUIRES: 0 <= bytes <= capacity().
-  Lease Acquire(int64_t bytes, Clock::time_point deadline) {
-    std::unique_lock<std::mutex> lock(mutex_);
-    if (!freed_.wait_until(lock, deadline, [&] { return in_use_ + bytes <= capacity_; })) {
-      return Lease();
+  Lease Acquire(int64_t bytes, Clock::time_point deadline) EXCLUDES(mutex_) {
+    MutexLock lock(&mutex_);
+    while (in_use_ + bytes > capacity_) {
+      if (!lock.WaitUntil(freed_, deadline) && in_use_ + bytes > capacity_) return Lease();
     }
     in_use_ += bytes;
     return Lease(this, bytes);
   }
 
   int64_t capacity() const { return capacity_; }
-  int64_t in_use() const {
-    std::lock_guard<std::mutex> lock(mutex_);
+  int64_t in_use() const EXCLUDES(mutex_) {
+    MutexLock lock(&mutex_);
     return in_use_;
   }
 
  private:
-  void Release(int64_t bytes) {
+  void Release(int64_t bytes) EXCLUDES(mutex_) {
     {
-      std::lock_guard<std::mutex> lock(mutex_);
+      MutexLock lock(&mutex_);
       in_use_ -= bytes;
     }
     freed_.notify_all();
   }
 
+  // Constant after construction.
   const int64_t capacity_;
-  mutable std::mutex mutex_;
-  std::condition_variable freed_;
-  int64_t in_use_ = 0;  // guarded by mutex_
+
+  mutable Mutex mutex_;
+  std::condition_variable freed_;  // signalled when bytes are released
+  // Guarded by mutex_.
+  int64_t in_use_ GUARDED_BY(mutex_) = 0;
 };
 
 }  // namespace sceneloc

@@ -86,6 +86,45 @@ TokenOwner TokenOwnerOf(const std::string& client, const v1::LocaliseRequest& re
   return {client, request.session(), map.checksum, map.map.num_images()};
 }
 
+// The fields of a localise request that are checked before any work: top_k,
+// min_confidence and the session's.
+Status CheckLocaliseFields(const v1::LocaliseRequest& request, int max_top_k) {
+  if (request.top_k() < 0 || request.top_k() > max_top_k) {
+    return InvalidArgument("top_k must be in [0, " + std::to_string(max_top_k) +
+                           "] (0 = the server's default)");
+  }
+  if (request.has_min_confidence() &&
+      !(request.min_confidence() >= 0.0f && request.min_confidence() <= 1.0f)) {
+    return InvalidArgument("min_confidence must be in [0, 1], got " +
+                           std::to_string(request.min_confidence()));
+  }
+  if (!request.session().empty()) SCENELOC_RETURN_IF_ERROR(CheckSessionName(request.session()));
+  if (request.session().empty() && (request.reset_session() || !request.session_state().empty())) {
+    return InvalidArgument(
+        std::string(request.reset_session() ? "reset_session" : "session_state") +
+        " needs a session name");
+  }
+  return Status::Ok();
+}
+
+// Reads the session state a request carries (session_token.h), if any and unless it resets
+// its session: one that fits `map` and the client goes to *carried; one of another map
+// sets *other_map. Errors: a state that cannot be read, or that belongs to someone else.
+Status ReadCarriedState(const v1::LocaliseRequest& request, const std::string& client,
+                        const LoadedMap& map, std::optional<SequenceState>* carried,
+                        bool* other_map) {
+  if (request.session().empty() || request.session_state().empty() || request.reset_session()) {
+    return Status::Ok();
+  }
+  SequenceState state;
+  SCENELOC_ASSIGN_OR_RETURN(
+      const TokenFit fit,
+      ParseSessionToken(request.session_state(), TokenOwnerOf(client, request, map), &state));
+  *other_map = fit == TokenFit::kOtherMap;
+  if (fit == TokenFit::kFits) *carried = std::move(state);
+  return Status::Ok();
+}
+
 v1::SessionStart ToWireStart(SessionStart start) {
   switch (start) {
     case SessionStart::kContinued:
@@ -198,62 +237,25 @@ Status RequestHandler::HandleLocalise(const v1::LocaliseRequest& request,
                                       v1::LocaliseReply* reply) const {
   v1::Timings timings;
   timings.set_queue_ms(MsSince(received));
-  if (request.top_k() < 0 || request.top_k() > options_.limits.max_top_k) {
-    return InvalidArgument("top_k must be in [0, " + std::to_string(options_.limits.max_top_k) +
-                           "] (0 = the server's default)");
-  }
-  if (request.has_min_confidence() &&
-      !(request.min_confidence() >= 0.0f && request.min_confidence() <= 1.0f)) {
-    return InvalidArgument("min_confidence must be in [0, 1], got " +
-                           std::to_string(request.min_confidence()));
-  }
-  if (!request.session().empty()) SCENELOC_RETURN_IF_ERROR(CheckSessionName(request.session()));
-  if (request.session().empty() && (request.reset_session() || !request.session_state().empty())) {
-    return InvalidArgument(
-        std::string(request.reset_session() ? "reset_session" : "session_state") +
-        " needs a session name");
-  }
+  SCENELOC_RETURN_IF_ERROR(CheckLocaliseFields(request, options_.limits.max_top_k));
   // The one snapshot this request uses from here to its reply.
   const std::shared_ptr<const LoadedMap> map = registry_->Get(request.map());
   if (map == nullptr) return NotFound("no map named '" + request.map() + "'");
   // A carried session state is checked before any work is done on the frame.
   std::optional<SequenceState> carried;
   bool other_map = false;
-  if (!request.session().empty() && !request.session_state().empty() && !request.reset_session()) {
-    SequenceState state;
-    SCENELOC_ASSIGN_OR_RETURN(
-        const TokenFit fit,
-        ParseSessionToken(request.session_state(), TokenOwnerOf(client, request, *map), &state));
-    other_map = fit == TokenFit::kOtherMap;
-    if (fit == TokenFit::kFits) carried = std::move(state);
-  }
+  SCENELOC_RETURN_IF_ERROR(ReadCarriedState(request, client, *map, &carried, &other_map));
 
   const Clock::time_point deadline =
       received + std::chrono::milliseconds(options_.limits.max_request_ms);
-  StatusOr<FeatureSet> features = InvalidArgument("localise request carries no query");
-  if (request.query_case() == v1::LocaliseRequest::kJpeg) {
-    features = ExtractJpeg(request.jpeg(), *map, options_.limits, decode_budget_.get(), deadline,
-                           &timings);
-  } else if (request.query_case() == v1::LocaliseRequest::kFeatures) {
-    Stopwatch watch;
-    features = DecodeFeatureSet(request.features(),
-                                {options_.limits.max_keypoints, options_.limits.max_image_side});
-    timings.set_extract_ms(watch.Milliseconds());
-  }
-  if (!features.ok()) return features.status();
-  if (Clock::now() > deadline) {
-    return DeadlineExceeded("request passed its " + std::to_string(options_.limits.max_request_ms) +
-                            " ms budget (max_request_ms) before matching: queue " +
-                            std::to_string(timings.queue_ms()) + " ms, decode " +
-                            std::to_string(timings.decode_ms()) + " ms, extraction " +
-                            std::to_string(timings.extract_ms()) + " ms");
-  }
+  SCENELOC_ASSIGN_OR_RETURN(const FeatureSet features,
+                            QueryFeatures(request, *map, deadline, &timings));
 
   MatchOptions match = options_.matching;
   match.deadline = deadline;
   if (request.top_k() > 0) match.top_k = request.top_k();
   if (request.has_min_confidence()) match.min_confidence = request.min_confidence();
-  StatusOr<LocaliseResult> localised = Localise(*features, map->map, match, pool_);
+  StatusOr<LocaliseResult> localised = Localise(features, map->map, match, pool_);
   if (localised.status().code() == StatusCode::kDeadlineExceeded) {
     return DeadlineExceeded(localised.status().message() + "; budget " +
                             std::to_string(options_.limits.max_request_ms) +
@@ -267,13 +269,37 @@ Status RequestHandler::HandleLocalise(const v1::LocaliseRequest& request,
     const SessionSeed seed{request.reset_session(), other_map, carried ? &*carried : nullptr};
     UpdateSession(request, client, *map, result, seed, reply);
   }
-  reply->set_num_features(static_cast<uint32_t>(features->size()));
+  reply->set_num_features(static_cast<uint32_t>(features.size()));
   v1::Timings* t = reply->mutable_timings();
   t->set_queue_ms(timings.queue_ms());
   t->set_decode_ms(timings.decode_ms());
   t->set_extract_ms(timings.extract_ms());
   t->set_total_ms(MsSince(received));
   return Status::Ok();
+}
+
+StatusOr<FeatureSet> RequestHandler::QueryFeatures(const v1::LocaliseRequest& request,
+                                                   const LoadedMap& map, Clock::time_point deadline,
+                                                   v1::Timings* timings) const {
+  StatusOr<FeatureSet> features = InvalidArgument("localise request carries no query");
+  if (request.query_case() == v1::LocaliseRequest::kJpeg) {
+    features =
+        ExtractJpeg(request.jpeg(), map, options_.limits, decode_budget_.get(), deadline, timings);
+  } else if (request.query_case() == v1::LocaliseRequest::kFeatures) {
+    Stopwatch watch;
+    features = DecodeFeatureSet(request.features(),
+                                {options_.limits.max_keypoints, options_.limits.max_image_side});
+    timings->set_extract_ms(watch.Milliseconds());
+  }
+  if (!features.ok()) return features.status();
+  if (Clock::now() > deadline) {
+    return DeadlineExceeded("request passed its " + std::to_string(options_.limits.max_request_ms) +
+                            " ms budget (max_request_ms) before matching: queue " +
+                            std::to_string(timings->queue_ms()) + " ms, decode " +
+                            std::to_string(timings->decode_ms()) + " ms, extraction " +
+                            std::to_string(timings->extract_ms()) + " ms");
+  }
+  return features;
 }
 
 void RequestHandler::UpdateSession(const v1::LocaliseRequest& request, const std::string& client,

@@ -57,6 +57,11 @@ class RequestHandler {
   Status HandleLocalise(const v1::LocaliseRequest& request,
                         std::chrono::steady_clock::time_point received, const std::string& client,
                         v1::LocaliseReply* reply) const;
+  // The request's query as features: its JPEG decoded and extracted, or its feature set
+  // decoded, timed into `timings`. DeadlineExceeded when that ends past `deadline`.
+  StatusOr<FeatureSet> QueryFeatures(const v1::LocaliseRequest& request, const LoadedMap& map,
+                                     std::chrono::steady_clock::time_point deadline,
+                                     v1::Timings* timings) const;
   // Adds the frame to its session and the session's answer to `reply`.
   void UpdateSession(const v1::LocaliseRequest& request, const std::string& client,
                      const LoadedMap& map, const LocaliseResult& result, const SessionSeed& seed,

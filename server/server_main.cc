@@ -64,6 +64,33 @@ bool LoadAll(sceneloc::MapRegistry* registry, const std::string& dir) {
   return true;
 }
 
+// Blocks SIGTERM, SIGINT and SIGHUP in this thread and every thread started after (they
+// inherit the mask), so that only WaitForStop takes them; returns them.
+sigset_t BlockServerSignals() {
+  sigset_t signals;
+  sigemptyset(&signals);
+  for (const int s : {SIGTERM, SIGINT, SIGHUP}) sigaddset(&signals, s);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  return signals;
+}
+
+// Takes the blocked `signals` until SIGTERM or SIGINT; each SIGHUP reloads.
+void WaitForStop(const sigset_t& signals, const sceneloc::ServerOptions& options,
+                 sceneloc::Server* server) {
+  for (;;) {
+    int signal = 0;
+    if (sigwait(&signals, &signal) != 0) continue;
+    if (signal == SIGHUP) {
+      spdlog::info("SIGHUP: reloading the maps in {}{}", options.maps_dir,
+                   options.auth.enabled ? " and the authorised clients" : "");
+      server->ReloadAll();
+      continue;
+    }
+    spdlog::info("{}: stopping", signal == SIGTERM ? "SIGTERM" : "SIGINT");
+    return;
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -108,10 +135,7 @@ int main(int argc, char** argv) {
   spdlog::debug("settings:\n{}", sceneloc::ServerOptionsToYaml(options));
 
   // Block the signals in every thread (they inherit the mask) and take them here.
-  sigset_t signals;
-  sigemptyset(&signals);
-  for (const int s : {SIGTERM, SIGINT, SIGHUP}) sigaddset(&signals, s);
-  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  const sigset_t signals = BlockServerSignals();
 
   sceneloc::MapRegistry::Options registry_options;
   registry_options.self_test = options.matching;
@@ -128,18 +152,7 @@ int main(int argc, char** argv) {
     spdlog::critical("{}", server.status().message());
     return 1;
   }
-  for (;;) {
-    int signal = 0;
-    if (sigwait(&signals, &signal) != 0) continue;
-    if (signal == SIGHUP) {
-      spdlog::info("SIGHUP: reloading the maps in {}{}", options.maps_dir,
-                   options.auth.enabled ? " and the authorised clients" : "");
-      (*server)->ReloadAll();
-      continue;
-    }
-    spdlog::info("{}: stopping", signal == SIGTERM ? "SIGTERM" : "SIGINT");
-    break;
-  }
+  WaitForStop(signals, options, server->get());
   (*server)->Shutdown();
   spdlog::info("stopped");
   return 0;

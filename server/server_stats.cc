@@ -36,26 +36,26 @@ double LatencyHistogram::Percentile(double q) const {
 ServerStats::ServerStats() : start_(std::chrono::steady_clock::now()) {}
 
 void ServerStats::RecordRequest() {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   ++requests_;
 }
 
 void ServerStats::RecordReply(const std::string& status, bool is_localise, double latency_ms) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   ++replies_;
   ++replies_by_status_[status];
   if (is_localise && status == "OK") latency_.Add(latency_ms);
 }
 
 void ServerStats::RecordUndelivered() {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   ++undelivered_;
 }
 
 StatsSnapshot ServerStats::Snapshot() const {
   StatsSnapshot s;
   s.uptime_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   s.requests = requests_;
   s.in_flight = requests_ - replies_;
   s.replies_by_status = replies_by_status_;

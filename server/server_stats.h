@@ -9,9 +9,11 @@
 #include <chrono>
 #include <cstdint>
 #include <map>
-#include <mutex>
 #include <string>
 #include <vector>
+
+#include "common/util/mutex.h"
+#include "common/util/thread_annotations.h"
 
 namespace sceneloc {
 
@@ -48,23 +50,25 @@ class ServerStats {
  public:
   ServerStats();
   // A request arrived (of any kind, before any check).
-  void RecordRequest();
+  void RecordRequest() EXCLUDES(mutex_);
   // Its reply left, with this wire status name ("OK", "OVERLOADED", ...). A successful
   // localise request adds its end-to-end latency to the histogram.
-  void RecordReply(const std::string& status, bool is_localise, double latency_ms);
+  void RecordReply(const std::string& status, bool is_localise, double latency_ms) EXCLUDES(mutex_);
   // A reply could not be delivered (the client had gone or had stopped reading).
-  void RecordUndelivered();
-  StatsSnapshot Snapshot() const;
+  void RecordUndelivered() EXCLUDES(mutex_);
+  StatsSnapshot Snapshot() const EXCLUDES(mutex_);
 
  private:
+  // Constant after construction.
   const std::chrono::steady_clock::time_point start_;
-  mutable std::mutex mutex_;
+
+  mutable Mutex mutex_;
   // Guarded by mutex_.
-  uint64_t requests_ = 0;
-  uint64_t replies_ = 0;
-  std::map<std::string, uint64_t> replies_by_status_;
-  uint64_t undelivered_ = 0;
-  LatencyHistogram latency_;
+  uint64_t requests_ GUARDED_BY(mutex_) = 0;
+  uint64_t replies_ GUARDED_BY(mutex_) = 0;
+  std::map<std::string, uint64_t> replies_by_status_ GUARDED_BY(mutex_);
+  uint64_t undelivered_ GUARDED_BY(mutex_) = 0;
+  LatencyHistogram latency_ GUARDED_BY(mutex_);
 };
 
 }  // namespace sceneloc

@@ -72,7 +72,7 @@ SessionStart SessionStore::Update(const std::string& client, const std::string& 
                                   const SessionSeed& seed, Clock::time_point now,
                                   const std::function<void(SequenceState*)>& step) {
   std::string key = Key(client, map, name);
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   DropIdle(now);
   SessionStart start = SessionStart::kContinued;
   auto it = sessions_.find(key);
@@ -115,7 +115,7 @@ SessionStart SessionStore::Update(const std::string& client, const std::string& 
 }
 
 SessionCounts SessionStore::Counts() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   SessionCounts c;
   c.live = sessions_.size();
   // Per session: the state, the key twice (map node and LRU list node) and the nodes.

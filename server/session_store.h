@@ -20,13 +20,14 @@
 #include <cstdint>
 #include <functional>
 #include <list>
-#include <mutex>
 #include <string>
 #include <unordered_map>
 
 #include "common/matching/sequence_filter.h"
+#include "common/util/mutex.h"
 #include "common/util/settings.h"
 #include "common/util/status.h"
+#include "common/util/thread_annotations.h"
 #include "proto/wire.h"
 
 namespace sceneloc {
@@ -81,9 +82,9 @@ class SessionStore {
   // carried state).
   SessionStart Update(const std::string& client, const std::string& map, const std::string& name,
                       uint64_t generation, const SessionSeed& seed, Clock::time_point now,
-                      const std::function<void(SequenceState*)>& step);
+                      const std::function<void(SequenceState*)>& step) EXCLUDES(mutex_);
 
-  SessionCounts Counts() const;
+  SessionCounts Counts() const EXCLUDES(mutex_);
 
  private:
   struct Entry {
@@ -93,20 +94,19 @@ class SessionStore {
     std::list<std::string>::iterator lru;  // its place in lru_
   };
 
-  // REQUIRES: mutex_ held.
-  void DropIdle(Clock::time_point now);
-  void DropLeastRecentlyUsed();
+  void DropIdle(Clock::time_point now) REQUIRES(mutex_);
+  void DropLeastRecentlyUsed() REQUIRES(mutex_);
 
   // Constant after construction.
   const SessionOptions options_;
 
-  mutable std::mutex mutex_;
+  mutable Mutex mutex_;
   // Guarded by mutex_.
-  std::unordered_map<std::string, Entry> sessions_;
-  std::list<std::string> lru_;  // keys, most recently used first
-  size_t state_bytes_ = 0;      // sum of the states' belief sizes, bytes
-  uint64_t evicted_ = 0;
-  uint64_t expired_ = 0;
+  std::unordered_map<std::string, Entry> sessions_ GUARDED_BY(mutex_);
+  std::list<std::string> lru_ GUARDED_BY(mutex_);  // keys, most recently used first
+  size_t state_bytes_ GUARDED_BY(mutex_) = 0;      // sum of the states' belief sizes, bytes
+  uint64_t evicted_ GUARDED_BY(mutex_) = 0;
+  uint64_t expired_ GUARDED_BY(mutex_) = 0;
 };
 
 }  // namespace sceneloc

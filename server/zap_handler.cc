@@ -50,7 +50,7 @@ ZapHandler::~ZapHandler() {
 }
 
 std::shared_ptr<const AuthorisedKeys> ZapHandler::clients() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   return clients_;
 }
 
@@ -70,7 +70,7 @@ Status ZapHandler::ReloadClients() {
     return loaded.status();
   }
   spdlog::info("auth: {} authorised client key(s) from {}", (*loaded)->size(), options_.clients);
-  std::lock_guard<std::mutex> lock(mutex_);
+  MutexLock lock(&mutex_);
   clients_ = std::move(loaded).value();
   return Status::Ok();
 }

@@ -17,13 +17,14 @@
 #include <atomic>
 #include <chrono>
 #include <memory>
-#include <mutex>
 #include <string>
 #include <thread>
 #include <zmq.hpp>
 
 #include "common/keys/keys.h"
+#include "common/util/mutex.h"
 #include "common/util/status.h"
+#include "common/util/thread_annotations.h"
 #include "server/server_options.h"
 
 namespace sceneloc {
@@ -41,9 +42,9 @@ class ZapHandler {
 
   const KeyPair& server_key() const { return server_key_; }
   // The role of the key named `user_id` in the clients file as it is now.
-  Role RoleOf(const std::string& user_id) const;
+  Role RoleOf(const std::string& user_id) const EXCLUDES(mutex_);
   // Re-reads the clients file; on an error the old list stays in force.
-  Status ReloadClients();
+  Status ReloadClients() EXCLUDES(mutex_);
 
   uint64_t admitted() const { return admitted_; }
   uint64_t refused() const { return refused_; }
@@ -51,23 +52,32 @@ class ZapHandler {
  private:
   ZapHandler(zmq::context_t& context, AuthOptions options, KeyPair server_key,
              std::shared_ptr<const AuthorisedKeys> clients);
-  void Loop();
-  void Answer();
-  std::shared_ptr<const AuthorisedKeys> clients() const;
+  void Loop() EXCLUDES(mutex_);
+  void Answer() EXCLUDES(mutex_);
+  // The clients file as last loaded: a snapshot the caller reads without the lock.
+  std::shared_ptr<const AuthorisedKeys> clients() const EXCLUDES(mutex_);
 
+  // Constant after construction.
   const AuthOptions options_;
   const KeyPair server_key_;
-  zmq::socket_t socket_;  // owned by thread_ once it runs
-  mutable std::mutex mutex_;
-  std::shared_ptr<const AuthorisedKeys> clients_;  // guarded by mutex_
+
+  // Handler thread only, once it runs (Start() binds the socket before).
+  zmq::socket_t socket_;
+  // Refusals are logged at most once a second (a flood of handshakes must not flood the
+  // log).
+  std::chrono::steady_clock::time_point last_refusal_log_{};
+  uint64_t unlogged_refusals_ = 0;
+
+  // Any thread, without a lock.
   std::atomic<bool> stop_{false};
   std::atomic<uint64_t> admitted_{0};
   std::atomic<uint64_t> refused_{0};
-  // Refusals are logged at most once a second (a flood of handshakes must not flood the
-  // log); handler thread only.
-  std::chrono::steady_clock::time_point last_refusal_log_{};
-  uint64_t unlogged_refusals_ = 0;
-  std::thread thread_;
+
+  mutable Mutex mutex_;
+  // Guarded by mutex_.
+  std::shared_ptr<const AuthorisedKeys> clients_ GUARDED_BY(mutex_);
+
+  std::thread thread_;  // set by Start(), joined by the destructor
 };
 
 }  // namespace sceneloc

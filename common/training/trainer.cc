@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <atomic>
 #include <ctime>
-#include <mutex>
 
 #include "common/training/calibration.h"
 #include "common/training/cooccurrence.h"
@@ -12,6 +11,7 @@
 #include "common/training/selection.h"
 #include "common/training/tracker.h"
 #include "common/util/image_folder.h"
+#include "common/util/mutex.h"
 #include "common/util/thread_pool.h"
 #include "common/util/timer.h"
 
@@ -288,7 +288,7 @@ StatusOr<std::vector<FeatureSet>> ExtractImages(const std::vector<std::string>& 
   std::vector<Status> errors(image_paths.size());
   std::vector<cv::Size> sizes(image_paths.size());
   std::atomic<size_t> done{0};
-  std::mutex progress_mutex;
+  Mutex progress_mutex;  // one progress() call at a time
   ThreadPool pool(threads);
   pool.ParallelFor(image_paths.size(), 1, [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) {
@@ -307,7 +307,7 @@ StatusOr<std::vector<FeatureSet>> ExtractImages(const std::vector<std::string>& 
       features[i] = std::move(set).value();
       const size_t n = ++done;
       if (progress) {
-        std::lock_guard<std::mutex> lock(progress_mutex);
+        MutexLock lock(&progress_mutex);
         progress("extract", n, image_paths.size());
       }
     }

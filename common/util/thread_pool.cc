@@ -12,7 +12,7 @@ ThreadPool::ThreadPool(int num_threads) : num_threads_(std::max(1, num_threads))
 
 ThreadPool::~ThreadPool() {
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     stopping_ = true;
   }
   cv_.notify_all();
@@ -25,7 +25,7 @@ void ThreadPool::Schedule(std::function<void()> task) {
     return;
   }
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    MutexLock lock(&mutex_);
     queue_.push_back(std::move(task));
   }
   cv_.notify_one();
@@ -35,8 +35,8 @@ void ThreadPool::WorkerLoop() {
   for (;;) {
     std::function<void()> task;
     {
-      std::unique_lock<std::mutex> lock(mutex_);
-      cv_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
+      MutexLock lock(&mutex_);
+      while (!stopping_ && queue_.empty()) lock.Wait(cv_);
       if (queue_.empty()) return;  // stopping and drained
       task = std::move(queue_.front());
       queue_.pop_front();
@@ -62,9 +62,9 @@ struct LoopState {
   std::atomic<size_t> next{0};
   std::atomic<size_t> done{0};
   std::atomic<bool> failed{false};
-  std::mutex mutex;
-  std::condition_variable cv;
-  std::exception_ptr error;  // the first exception a chunk threw; guarded by mutex
+  Mutex mutex;
+  std::condition_variable cv;                  // signalled when the last chunk is done
+  std::exception_ptr error GUARDED_BY(mutex);  // the first exception a chunk threw
 
   // Runs chunks until none is left. After a chunk has thrown, the rest are skipped (but
   // still counted, so the caller's wait ends) and the caller rethrows the first exception.
@@ -77,13 +77,15 @@ struct LoopState {
         try {
           fn(begin, std::min(n, begin + chunk));
         } catch (...) {
-          std::lock_guard<std::mutex> lock(mutex);
+          MutexLock lock(&mutex);
           if (!error) error = std::current_exception();
           failed = true;
         }
       }
       if (done.fetch_add(1) + 1 == num_chunks) {
-        std::lock_guard<std::mutex> lock(mutex);
+        // Under the lock, so the notification cannot fall between the caller's check of
+        // `done` and its wait.
+        MutexLock lock(&mutex);
         cv.notify_all();
       }
     }
@@ -113,8 +115,8 @@ void ThreadPool::ParallelFor(size_t n, size_t min_chunk,
   const size_t helpers = std::min(num_chunks - 1, workers_.size());
   for (size_t i = 0; i < helpers; ++i) Schedule([state] { state->Drain(); });
   state->Drain();
-  std::unique_lock<std::mutex> lock(state->mutex);
-  state->cv.wait(lock, [&] { return state->done.load() == num_chunks; });
+  MutexLock lock(&state->mutex);
+  while (state->done.load() != num_chunks) lock.Wait(state->cv);
   if (state->error) std::rethrow_exception(state->error);
 }
 

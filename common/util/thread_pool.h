@@ -12,9 +12,11 @@
 #include <deque>
 #include <functional>
 #include <memory>
-#include <mutex>
 #include <thread>
 #include <vector>
+
+#include "common/util/mutex.h"
+#include "common/util/thread_annotations.h"
 
 namespace sceneloc {
 
@@ -31,7 +33,7 @@ class ThreadPool {
 
   // Runs `task` on a worker (inline without workers). An exception it throws on a worker
   // is dropped: tasks report their own errors.
-  void Schedule(std::function<void()> task);
+  void Schedule(std::function<void()> task) EXCLUDES(mutex_);
 
   // Calls fn(begin, end) over [0, n) split into contiguous chunks of at least min_chunk
   // items; returns when every chunk is done. Runs inline when there is one thread or
@@ -39,18 +41,20 @@ class ThreadPool {
   // the first exception is rethrown on the caller once every started chunk has finished;
   // no pool thread ever ends the process.
   void ParallelFor(size_t n, size_t min_chunk,
-                   const std::function<void(size_t begin, size_t end)>& fn);
+                   const std::function<void(size_t begin, size_t end)>& fn) EXCLUDES(mutex_);
 
  private:
-  void WorkerLoop();
+  void WorkerLoop() EXCLUDES(mutex_);
 
+  // Constant after construction.
   const int num_threads_;
-  std::vector<std::thread> workers_;
+  std::vector<std::thread> workers_;  // joined by the destructor
+
+  Mutex mutex_;
+  std::condition_variable cv_;  // signalled when a task is queued or stopping_ is set
   // Guarded by mutex_.
-  std::mutex mutex_;
-  std::condition_variable cv_;
-  std::deque<std::function<void()>> queue_;
-  bool stopping_ = false;
+  std::deque<std::function<void()>> queue_ GUARDED_BY(mutex_);
+  bool stopping_ GUARDED_BY(mutex_) = false;
 };
 
 }  // namespace sceneloc

@@ -123,8 +123,10 @@ TEST_F(ServerTest, FeatureSetRoundTripMatchesTheEngine) {
 // uint8 descriptors (a quarter of the bytes) still find the right location, and top_k
 // is honoured.
 TEST_F(ServerTest, Uint8FeatureSetAndTopK) {
-  auto reply =
-      client_->Localise(kTestMapName, test::TourFeatures(3), {2, {}, DescriptorEncoding::kUint8});
+  LocaliseOptions options;
+  options.top_k = 2;
+  options.encoding = DescriptorEncoding::kUint8;
+  auto reply = client_->Localise(kTestMapName, test::TourFeatures(3), options);
   ASSERT_TRUE(reply.ok()) << reply.status().ToString();
   ASSERT_EQ(reply->locations_size(), 2);
   EXPECT_EQ(reply->locations(0).index(), 3);

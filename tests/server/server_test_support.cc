@@ -95,13 +95,13 @@ ServerOptions TestServerOptions() {
   options.threads = 2;
   options.summary_interval_s = 0;
   options.log_level = "warn";
-#if defined(__SANITIZE_ADDRESS__)
-  // Under ASan + UBSan (scripts/sanitize.sh) requests run 10-20x slower; the default 5 s
-  // budget would turn slowness into DEADLINE_EXCEEDED, and the 1 s queue wait into
-  // OVERLOADED. Tests of the deadline set their own.
-  options.limits.max_request_ms = 120000;
-  options.limits.max_queue_wait_ms = 120000;
-#endif
+  if (kUnderAsan) {
+    // Under ASan + UBSan (scripts/sanitize.sh) requests run 10-20x slower; the default 5 s
+    // budget would turn slowness into DEADLINE_EXCEEDED, and the 1 s queue wait into
+    // OVERLOADED. Tests of the deadline set their own.
+    options.limits.max_request_ms = 120000;
+    options.limits.max_queue_wait_ms = 120000;
+  }
   return options;
 }
 
