@@ -242,8 +242,12 @@ int Run(const Args& args) {
 int main(int argc, char** argv) {
   CLI::App app{"sceneloc-eval: match rate, confidence and timing of a map on a query folder"};
   Args args;
-  app.add_option("--map", args.map_path, "map file")->required();
-  app.add_option("--queries", args.queries_dir, "folder of query images")->required();
+  bool print_config = false;
+  app.add_flag("--print-config", print_config,
+               "print the matching settings in effect (defaults, or --config) as a documented "
+               "settings file, and exit");
+  app.add_option("--map", args.map_path, "map file (required)");
+  app.add_option("--queries", args.queries_dir, "folder of query images (required)");
   app.add_option("--ground-truth", args.truth_csv, "CSV of query_file,tour_file rows");
   app.add_option("--tolerance", args.tolerance, "headline tolerance in frames")
       ->check(CLI::Range(0, 3));
@@ -264,5 +268,18 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(2, 100000));
   app.add_option("--seed", args.seed, "shuffle seed of --kidnap");
   CLI11_PARSE(app, argc, argv);
+  if (print_config) {
+    sl::MatchOptions options;
+    if (const sl::Status s = LoadOptions(args, &options); !s.ok()) {
+      std::fprintf(stderr, "sceneloc-eval: %s\n", s.message().c_str());
+      return 2;
+    }
+    std::fputs(sl::DocumentedMatchSettings(options).c_str(), stdout);
+    return 0;
+  }
+  if (args.map_path.empty() || args.queries_dir.empty()) {
+    std::fprintf(stderr, "sceneloc-eval: --map and --queries are required (see --help)\n");
+    return 2;
+  }
   return Run(args);
 }

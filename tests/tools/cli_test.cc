@@ -151,7 +151,7 @@ TEST_F(CliTest, BadSettingsFiles) {
   std::ofstream(bad_value) << "tracking:\n  distance_threshold: -1\n";
   ExpectOneLineError(
       RunCommand(Train((dir_ / "tour").string(), out, "--config '" + bad_value + "'")),
-      {"bad_value.yaml", "tracking.distance_threshold", "out of range"});
+      {"bad_value.yaml", "tracking.distance_threshold", "is outside [1e-06, 2]"});
   EXPECT_FALSE(fs::exists(out));
 }
 
