@@ -2,8 +2,8 @@
 //
 // A request takes its snapshot once (Get) and uses only it, so a reload or a removal
 // never changes a map under a running request: the old snapshot lives until the last
-// request holding it finishes (DESIGN.md "The daemon"; LevelDB pins its version per read
-// the same way).
+// request holding it finishes (README "Hot reload"; LevelDB pins its version per read the
+// same way).
 //
 // Loading reads, checksums and validates the whole file (LoadMap) and then runs a
 // self-test query built from the map's own landmarks, all without holding the registry

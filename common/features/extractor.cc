@@ -29,6 +29,9 @@ SettingTable ExtractorSettings(ExtractorOptions* o, const std::string& section) 
           .Help("OpenCV SIFT defaults (0.02 measured no better, slower)"),
       Setting(section, "edge_threshold", &o->edge_threshold).Range(1e-6, 1000),
       Setting(section, "sigma", &o->sigma).Range(0.1, 10).Unit("pixels"),
+      Setting(section, "octave_layers", &o->octave_layers)
+          .Range(1, 8)
+          .Help("SIFT scale levels per octave (OpenCV's and Lowe's: 3)"),
       Setting(section, "clahe_clip", &o->clahe_clip)
           .Range(0, 100)
           .Help("local contrast equalisation before SIFT (0 = off; measured, not better)"),
@@ -75,9 +78,6 @@ StatusOr<FeatureSet> FeatureExtractor::ExtractTour(const cv::Mat& image) const {
 
 namespace {
 
-// Scale levels per pyramid octave: OpenCV's default and Lowe's, fixed for every map.
-constexpr int kSiftOctaveLayers = 3;
-
 // RootSIFT (Arandjelovic & Zisserman 2012): each row L1-normalised and square-rooted, so
 // that Euclidean distance compares descriptors by the Hellinger kernel. Rows stay unit L2.
 void RootRows(DescriptorMatrix* m) {
@@ -109,13 +109,13 @@ int TopContextOctave(int w, int h) {
 // closest to that old descriptor's; the layer of k's own blur one octave up measured
 // slightly worse (docs/results.md, "One pass of extraction"). Octaves up = floor(log2
 // scale); the octave stays at most `top` (above it the image is too small to describe).
-cv::KeyPoint ContextKeypoint(const cv::KeyPoint& k, double scale, int top) {
+cv::KeyPoint ContextKeypoint(const cv::KeyPoint& k, double scale, int top, int octave_layers) {
   cv::KeyPoint wide = k;
   wide.size = static_cast<float>(k.size * scale);
   const int own = UnpackOctave(k);
   const int up =
       std::max(0, std::min(static_cast<int>(std::floor(std::log2(scale) + 1e-9)), top - own));
-  const int layer = std::max(0, ((k.octave >> 8) & 0xff) - kSiftOctaveLayers * up);
+  const int layer = std::max(0, ((k.octave >> 8) & 0xff) - octave_layers * up);
   wide.octave = (k.octave & ~0xffff) | ((layer & 0xff) << 8) | ((own + up) & 0xff);
   return wide;
 }
@@ -167,12 +167,13 @@ cv::Mat Equalise(const cv::Mat& gray, double clip) {
 // detection pyramid's doubled base: the second pass costs the descriptors and little else.
 cv::Mat ContextDescriptors(cv::SIFT* sift, const cv::Mat& gray,
                            const std::vector<cv::KeyPoint>& detected, const std::vector<int>& kept,
-                           double context_scale) {
+                           double context_scale, int octave_layers) {
   const size_t n = kept.size();
   std::vector<cv::KeyPoint> wide;
   wide.reserve(n);
   const int top = TopContextOctave(gray.cols, gray.rows);
-  for (const int i : kept) wide.push_back(ContextKeypoint(detected[i], context_scale, top));
+  for (const int i : kept)
+    wide.push_back(ContextKeypoint(detected[i], context_scale, top, octave_layers));
   cv::Mat context;
   if (n > 0) sift->compute(gray, wide, context);
   CV_Assert(wide.size() == n && context.rows == static_cast<int>(n));
@@ -252,7 +253,7 @@ class SiftExtractor final : public FeatureExtractor {
     const cv::Mat gray = options_.clahe_clip > 0 ? Equalise(frame, options_.clahe_clip) : frame;
     // cv::SIFT holds per-call scratch state, so each call makes its own (cheap).
     auto sift =
-        cv::SIFT::create(options_.max_features, kSiftOctaveLayers, options_.contrast_threshold,
+        cv::SIFT::create(options_.max_features, options_.octave_layers, options_.contrast_threshold,
                          options_.edge_threshold, options_.sigma);
     // Detection and the local descriptors from one pyramid: exactly plain SIFT.
     std::vector<cv::KeyPoint> detected;
@@ -261,8 +262,8 @@ class SiftExtractor final : public FeatureExtractor {
     // detectAndCompute keeps keypoints and descriptor rows one-to-one; check, not assume.
     CV_Assert(local.rows == static_cast<int>(detected.size()));
     const std::vector<int> kept = StrongestFirst(detected, options_.max_features);
-    const cv::Mat context =
-        ContextDescriptors(sift.get(), gray, detected, kept, options_.context_scale);
+    const cv::Mat context = ContextDescriptors(sift.get(), gray, detected, kept,
+                                               options_.context_scale, options_.octave_layers);
     FeatureSet set = PackFeatures(detected, kept, local, context, gray.size());
     NormaliseDescriptors(options_.root_sift, &set);
     if (!target.holistic.empty()) {

@@ -40,6 +40,10 @@ struct ExtractorOptions {
   double contrast_threshold = 0.04;
   double edge_threshold = 10.0;
   double sigma = 1.6;
+  // Scale levels per pyramid octave (OpenCV's default and Lowe's). It shapes which keypoints
+  // are found and where a context descriptor is read (one octave up = this many layers), so
+  // a map stores it and every query is extracted with the map's.
+  int octave_layers = 3;
   // Refuse images larger than this many pixels per side (untrusted input).
   int max_image_side = kDefaultMaxImageSide;
   // Lighting options, measured and off by default (docs/results.md): contrast-limited

@@ -3,7 +3,7 @@
 // sequence makes LoadMap or ParseMap crash, read out of bounds or allocate much more
 // than the file's own size; each failure is a status whose message names the file.
 //
-// Layout, format version 2. Integers are little-endian two's complement, f32/f64 are
+// Layout, format version 3. Integers are little-endian two's complement, f32/f64 are
 // IEEE 754 binary32/binary64 little-endian. There is no padding anywhere.
 //
 //   Header, 32 bytes:
@@ -16,7 +16,7 @@
 //   Payload, in this order:
 //     TrainOptions   extractor: i32 max_features, i32 working_size, f64 context_scale,
 //                      f64 contrast_threshold, f64 edge_threshold, f64 sigma,
-//                      i32 max_image_side, f64 clahe_clip, u8 root_sift,
+//                      i32 octave_layers, i32 max_image_side, f64 clahe_clip, u8 root_sift,
 //                      i32 holistic_cols, i32 holistic_cell_pixels, i32 holistic_bins,
 //                      i32 holistic_max_shift;
 //                    f64 track_distance_threshold, f64 ransac_threshold,
@@ -50,6 +50,8 @@
 //
 //   where a u8 flag is 0 or 1.
 //
+//   Format version 2 (still read): as 3 without extractor.octave_layers (those maps were
+//   all made with 3 layers, OpenCV's default, which a version 2 map loads with).
 //   Format version 1 (still read): extractor.working_size was f64 image_scale, and the
 //   lighting, holistic, confidence and calibration fields, min_landmarks_per_image and
 //   observation_angle were absent;
@@ -79,7 +81,7 @@
 namespace sceneloc {
 
 inline constexpr char kMapMagic[8] = {'S', 'C', 'N', 'L', 'M', 'A', 'P', '\0'};
-inline constexpr uint32_t kMapFormatVersion = 2;
+inline constexpr uint32_t kMapFormatVersion = 3;
 inline constexpr size_t kMapHeaderBytes = 32;
 
 // What the header of a map file says.

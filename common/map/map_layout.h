@@ -36,7 +36,8 @@ struct V1Fields {
 };
 
 // The payload layout, shared by writing (Archive = PayloadWriter, const fields) and
-// reading (PayloadReader, mutable fields) of format `version`. Keep it in step with
+// reading (PayloadReader, mutable fields) of format `version` (a field a version lacks keeps
+// its default, which is what the maps of that version were made with). Keep it in step with
 // map_io.h. Writing always uses kMapFormatVersion.
 template <typename Archive, typename Options, typename V1>
 void TransferOptions(Archive& a, Options& o, uint32_t version, V1& v1) {
@@ -51,6 +52,7 @@ void TransferOptions(Archive& a, Options& o, uint32_t version, V1& v1) {
   a.Field("extractor.contrast_threshold", o.extractor.contrast_threshold);
   a.Field("extractor.edge_threshold", o.extractor.edge_threshold);
   a.Field("extractor.sigma", o.extractor.sigma);
+  if (version >= 3) a.Field("extractor.octave_layers", o.extractor.octave_layers);
   a.Field("extractor.max_image_side", o.extractor.max_image_side);
   if (v2) {
     a.Field("extractor.clahe_clip", o.extractor.clahe_clip);

@@ -1,9 +1,10 @@
-// The baselines every accuracy and speed claim is measured against (DESIGN.md): every
-// feature of every tour image in one FLANN kd-tree index; each query feature votes for
-// the tour image of its nearest neighbour when it passes Lowe's ratio test (0.8); tour
-// images are ranked by votes. The stronger variant a user would script next re-ranks the
-// rerank_top most-voted images by the number of fundamental-matrix RANSAC inliers among
-// the ratio-test matches between the query and that image.
+// The baselines every accuracy and speed claim is measured against (README "Measurements",
+// docs/results.md): every feature of every tour image in one FLANN kd-tree index; each
+// query feature votes for the tour image of its nearest neighbour when it passes Lowe's
+// ratio test (0.8); tour images are ranked by votes. The stronger variant a user would
+// script next re-ranks the rerank_top most-voted images by the number of
+// fundamental-matrix RANSAC inliers among the ratio-test matches between the query and
+// that image.
 #pragma once
 
 #include <memory>

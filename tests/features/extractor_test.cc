@@ -103,30 +103,35 @@ float Cosine(const float* a, const float* b) {
 }
 
 // The keypoints and local descriptors are exactly plain SIFT's (detectAndCompute on the
-// working frame, the floor of issue 10): one pyramid, nothing changed in meaning.
+// working frame, the floor of issue 10): one pyramid, nothing changed in meaning. With the
+// default 3 scale levels per octave and with another (a map stores which).
 TEST(ExtractorTest, LocalDescriptorsArePlainSift) {
   const Frame frame = TourFrame();
-  const ExtractorOptions o;
-  auto f = FeatureExtractor::Create(o)->ExtractTour(frame.image);
-  ASSERT_TRUE(f.ok()) << f.status().ToString();
-  auto sift = cv::SIFT::create(o.max_features, 3, o.contrast_threshold, o.edge_threshold, o.sigma);
-  std::vector<cv::KeyPoint> k;
-  cv::Mat d;
-  sift->detectAndCompute(frame.gray, cv::noArray(), k, d);
-  ASSERT_GT(f->size(), 100);
-  ASSERT_LE(f->size(), static_cast<int>(k.size()));
-  // Each of ours is one of SIFT's, at the same point, scale and angle, same descriptor.
-  int same = 0;
-  for (int i = 0; i < f->size(); ++i) {
-    const Keypoint& p = f->keypoints[static_cast<size_t>(i)];
-    for (size_t j = 0; j < k.size(); ++j) {
-      if (k[j].pt.x == p.x && k[j].pt.y == p.y && k[j].size == p.size && k[j].angle == p.angle) {
-        same += Cosine(f->local.row(i).data(), d.ptr<float>(static_cast<int>(j))) > 0.9999f;
-        break;
+  for (const int layers : {3, 5}) {
+    ExtractorOptions o;
+    o.octave_layers = layers;
+    auto f = FeatureExtractor::Create(o)->ExtractTour(frame.image);
+    ASSERT_TRUE(f.ok()) << f.status().ToString();
+    auto sift =
+        cv::SIFT::create(o.max_features, layers, o.contrast_threshold, o.edge_threshold, o.sigma);
+    std::vector<cv::KeyPoint> k;
+    cv::Mat d;
+    sift->detectAndCompute(frame.gray, cv::noArray(), k, d);
+    ASSERT_GT(f->size(), 100) << layers;
+    ASSERT_LE(f->size(), static_cast<int>(k.size())) << layers;
+    // Each of ours is one of SIFT's, at the same point, scale and angle, same descriptor.
+    int same = 0;
+    for (int i = 0; i < f->size(); ++i) {
+      const Keypoint& p = f->keypoints[static_cast<size_t>(i)];
+      for (size_t j = 0; j < k.size(); ++j) {
+        if (k[j].pt.x == p.x && k[j].pt.y == p.y && k[j].size == p.size && k[j].angle == p.angle) {
+          same += Cosine(f->local.row(i).data(), d.ptr<float>(static_cast<int>(j))) > 0.9999f;
+          break;
+        }
       }
     }
+    EXPECT_EQ(same, f->size()) << layers;
   }
-  EXPECT_EQ(same, f->size());
 }
 
 // The context descriptor is the paper's: the same point described at twice its size. It is
@@ -135,26 +140,29 @@ TEST(ExtractorTest, LocalDescriptorsArePlainSift) {
 // descriptor. A wrongly packed octave or a lost scale drops the agreement.
 TEST(ExtractorTest, ContextIsThePointAtTwiceTheSize) {
   const Frame frame = TourFrame();
-  const ExtractorOptions o;
-  auto f = FeatureExtractor::Create(o)->ExtractTour(frame.image);
-  ASSERT_TRUE(f.ok()) << f.status().ToString();
-  std::vector<cv::KeyPoint> wide;
-  for (const Keypoint& p : f->keypoints) {
-    wide.emplace_back(cv::Point2f(p.x, p.y), p.size * 2, p.angle, p.response, p.octave);
+  for (const int layers : {3, 5}) {
+    ExtractorOptions o;
+    o.octave_layers = layers;
+    auto f = FeatureExtractor::Create(o)->ExtractTour(frame.image);
+    ASSERT_TRUE(f.ok()) << f.status().ToString();
+    std::vector<cv::KeyPoint> wide;
+    for (const Keypoint& p : f->keypoints) {
+      wide.emplace_back(cv::Point2f(p.x, p.y), p.size * 2, p.angle, p.response, p.octave);
+    }
+    cv::Mat same_octave;
+    cv::SIFT::create(o.max_features, layers, o.contrast_threshold, o.edge_threshold, o.sigma)
+        ->compute(frame.gray, wide, same_octave);
+    ASSERT_EQ(same_octave.rows, f->size());
+    double to_same_octave = 0, to_local = 0;
+    for (int i = 0; i < f->size(); ++i) {
+      to_same_octave += Cosine(f->context.row(i).data(), same_octave.ptr<float>(i));
+      to_local += Cosine(f->context.row(i).data(), f->local.row(i).data());
+    }
+    to_same_octave /= f->size();
+    to_local /= f->size();
+    EXPECT_GT(to_same_octave, 0.85) << layers << " layers, local " << to_local;
+    EXPECT_LT(to_local, to_same_octave - 0.1) << layers;
   }
-  cv::Mat same_octave;
-  cv::SIFT::create(o.max_features, 3, o.contrast_threshold, o.edge_threshold, o.sigma)
-      ->compute(frame.gray, wide, same_octave);
-  ASSERT_EQ(same_octave.rows, f->size());
-  double to_same_octave = 0, to_local = 0;
-  for (int i = 0; i < f->size(); ++i) {
-    to_same_octave += Cosine(f->context.row(i).data(), same_octave.ptr<float>(i));
-    to_local += Cosine(f->context.row(i).data(), f->local.row(i).data());
-  }
-  to_same_octave /= f->size();
-  to_local /= f->size();
-  EXPECT_GT(to_same_octave, 0.85) << "local " << to_local;
-  EXPECT_LT(to_local, to_same_octave - 0.1);
 }
 
 // max_features is exact and keeps the strongest responses.
@@ -269,6 +277,7 @@ TEST(ExtractorTest, OptionsOutOfRangeAreRefused) {
       {[](ExtractorOptions* o) { o->contrast_threshold = 0; }, "contrast_threshold"},
       {[](ExtractorOptions* o) { o->edge_threshold = -1; }, "edge_threshold"},
       {[](ExtractorOptions* o) { o->sigma = 0; }, "sigma"},
+      {[](ExtractorOptions* o) { o->octave_layers = 0; }, "octave_layers"},
       {[](ExtractorOptions* o) { o->clahe_clip = 101; }, "clahe_clip"},
       {[](ExtractorOptions* o) { o->max_image_side = 15; }, "max_image_side"},
   };

@@ -62,6 +62,7 @@ Map MakeMapWithDistinctOptions() {
   o.extractor.contrast_threshold = 0.031;
   o.extractor.edge_threshold = 11.5;
   o.extractor.sigma = 1.7;
+  o.extractor.octave_layers = 4;
   o.extractor.max_image_side = 4097;
   o.extractor.holistic.cell_pixels = 7;
   o.extractor.holistic.max_shift = 3;
@@ -285,6 +286,26 @@ TEST_F(MapIoTest, WrongMagicIsInvalidArgument) {
   ExpectLoadFails(bytes, StatusCode::kInvalidArgument, "is not a sceneloc map (bad magic)");
   ExpectLoadFails("landmarks: []\n", StatusCode::kInvalidArgument, "bad magic");
   ExpectLoadFails("S", StatusCode::kDataLoss, "truncated");  // a prefix of the magic
+}
+
+// A map written in format version 2 (tests/data/v2_map.scnl, before the octave layers
+// were stored) loads with the 3 layers it was made with, and is saved again as today's.
+TEST(MapIoCompatibilityTest, VersionTwoMapLoads) {
+  MapFileInfo info;
+  auto map = LoadMap(SCENELOC_TEST_DATA "/v2_map.scnl", &info);
+  ASSERT_TRUE(map.ok()) << map.status().ToString();
+  EXPECT_EQ(info.format_version, 2u);
+  EXPECT_EQ(map->num_images(), 6);
+  EXPECT_EQ(map->options.extractor.octave_layers, 3);
+  EXPECT_EQ(map->options.extractor.max_features, 100);
+  EXPECT_EQ(map->options.eta, 30);
+  EXPECT_TRUE(map->has_holistic());
+  EXPECT_TRUE(map->calibration.valid);
+  const std::string bytes = SerializeMap(*map);
+  EXPECT_EQ(GetU32(bytes, 8), kMapFormatVersion);
+  auto again = ParseMap(bytes, "resaved");
+  ASSERT_TRUE(again.ok()) << again.status().ToString();
+  ExpectMapsEqual(*map, *again);
 }
 
 // A map written before format version 2 (tests/data/v1_map.scnl) loads in today's terms:

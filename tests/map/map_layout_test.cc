@@ -8,6 +8,7 @@
 #include <cstring>
 #include <string>
 
+#include "common/map/map_io.h"
 #include "common/map/payload_archive.h"
 #include "tests/support/test_map.h"
 
@@ -39,6 +40,31 @@ TEST(MapLayoutTest, VersionTwoRoundTrips) {
   Map read = Read(Write(map, 2), 2, &unused);
   read.Finalize();
   test::ExpectMapsEqual(map, read);
+}
+
+// The current version stores every option, the SIFT octave layers too (version 3).
+TEST(MapLayoutTest, CurrentVersionRoundTrips) {
+  Map map = test::MakeRandomMap(6, 40, 3);
+  map.options.extractor.octave_layers = 5;
+  V1Fields unused;
+  Map read = Read(Write(map, kMapFormatVersion), kMapFormatVersion, &unused);
+  read.Finalize();
+  test::ExpectMapsEqual(map, read);
+}
+
+// Version 2 has no octave layers (its maps were all made with 3): four bytes shorter, and
+// read back with the default whatever the map in memory said.
+TEST(MapLayoutTest, VersionTwoLeavesOutTheOctaveLayers) {
+  Map map = test::MakeRandomMap(4, 20, 6);
+  map.options.extractor.octave_layers = 5;
+  const std::string v2_bytes = Write(map, 2);
+  EXPECT_EQ(v2_bytes.size() + sizeof(int32_t), Write(map, 3).size());
+  V1Fields unused;
+  const Map read = Read(v2_bytes, 2, &unused);
+  EXPECT_EQ(read.options.extractor.octave_layers, ExtractorOptions().octave_layers);
+  EXPECT_EQ(read.options.extractor.octave_layers, 3);
+  EXPECT_EQ(read.options.extractor.sigma, map.options.extractor.sigma);
+  EXPECT_EQ(read.options.extractor.max_image_side, map.options.extractor.max_image_side);
 }
 
 // The payload starts with extractor.max_features (i32), then working_size (i32), then

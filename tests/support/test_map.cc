@@ -198,6 +198,7 @@ void ExpectOptionsEqual(const TrainOptions& a, const TrainOptions& b) {
   EXPECT_EQ(a.extractor.contrast_threshold, b.extractor.contrast_threshold);
   EXPECT_EQ(a.extractor.edge_threshold, b.extractor.edge_threshold);
   EXPECT_EQ(a.extractor.sigma, b.extractor.sigma);
+  EXPECT_EQ(a.extractor.octave_layers, b.extractor.octave_layers);
   EXPECT_EQ(a.extractor.max_image_side, b.extractor.max_image_side);
   EXPECT_EQ(a.extractor.clahe_clip, b.extractor.clahe_clip);
   EXPECT_EQ(a.extractor.root_sift, b.extractor.root_sift);

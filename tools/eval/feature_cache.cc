@@ -21,8 +21,8 @@ std::string CacheKey(const std::vector<std::string>& paths, const ExtractorOptio
   std::ostringstream key;
   key << kCacheVersion << ' ' << o.max_features << ' ' << o.working_size << ' ' << o.context_scale
       << ' ' << o.contrast_threshold << ' ' << o.edge_threshold << ' ' << o.sigma << ' '
-      << o.holistic.cols << ' ' << o.holistic.cell_pixels << ' ' << o.holistic.bins << ' '
-      << o.clahe_clip << ' ' << o.root_sift;
+      << o.octave_layers << ' ' << o.holistic.cols << ' ' << o.holistic.cell_pixels << ' '
+      << o.holistic.bins << ' ' << o.clahe_clip << ' ' << o.root_sift;
   if (frame != nullptr) {
     key << " query " << frame->width << ' ' << frame->holistic.cols << ' ' << frame->holistic.rows
         << ' ' << frame->holistic.bins;
