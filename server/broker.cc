@@ -7,6 +7,7 @@
 
 #include "common/util/mutex.h"
 #include "common/util/thread_annotations.h"
+#include "server/zap_handler.h"
 
 namespace sceneloc {
 namespace {
@@ -27,9 +28,20 @@ class ZmqBroker final : public Broker {
   Status Bind() EXCLUDES(stop_mutex_) {
     // Nothing else runs yet; the lock is for the analysis (stop_ and thread_ are Stop()'s).
     MutexLock lock(&stop_mutex_);
+    if (options_.auth.enabled) {
+      // Bound before the frontend, so that no client is ever admitted unchecked.
+      auto zap = ZapHandler::Start(context_, options_.auth);
+      if (!zap.ok()) return zap.status();
+      zap_ = std::move(zap).value();
+    }
     std::string where;
     try {
       where = options_.frontend;
+      if (zap_ != nullptr) {
+        frontend_.set(zmq::sockopt::curve_server, true);
+        frontend_.set(zmq::sockopt::curve_secretkey, zap_->server_key().secret_key);
+        frontend_.set(zmq::sockopt::zap_domain, "sceneloc");
+      }
       frontend_.set(zmq::sockopt::maxmsgsize, options_.max_message_bytes);
       frontend_.set(zmq::sockopt::linger, 0);
       frontend_.bind(options_.frontend);
@@ -52,6 +64,11 @@ class ZmqBroker final : public Broker {
   std::string frontend() const override { return frontend_endpoint_; }
   std::string backend() const override { return backend_endpoint_; }
 
+  Status ReloadClients() override {
+    if (zap_ == nullptr) return FailedPrecondition("the broker runs without auth");
+    return zap_->ReloadClients();
+  }
+
   void Stop() override EXCLUDES(stop_mutex_) {
     MutexLock lock(&stop_mutex_);
     if (!thread_.joinable()) return;
@@ -61,6 +78,10 @@ class ZmqBroker final : public Broker {
       spdlog::error("broker: cannot stop the proxy: {}", e.what());
     }
     thread_.join();
+    if (zap_ != nullptr) {
+      spdlog::info("broker: {} connection(s) admitted, {} refused", zap_->admitted(),
+                   zap_->refused());
+    }
   }
 
  private:
@@ -78,6 +99,8 @@ class ZmqBroker final : public Broker {
 
   const BrokerOptions options_;
   zmq::context_t context_;
+  // Set by Bind() (with auth) before the proxy starts; its own thread answers ZAP requests.
+  std::unique_ptr<ZapHandler> zap_;
   // Owned by the proxy's thread once it runs.
   zmq::socket_t frontend_;
   zmq::socket_t backend_;
@@ -102,7 +125,7 @@ Status BrokerOptions::Validate() const {
     return InvalidArgument("broker frontend and backend must differ (both '" + frontend + "')");
   }
   if (max_message_bytes < 1024) return InvalidArgument("max_message_bytes must be >= 1024");
-  return Status::Ok();
+  return auth.Validate();
 }
 
 StatusOr<std::unique_ptr<Broker>> Broker::Start(const BrokerOptions& options) {

@@ -12,6 +12,14 @@
 // requests): a fleet with more maps than one machine holds is laid out as groups, one
 // broker per group (README "A fleet").
 //
+// With auth, the broker is where robots authenticate: CURVE on the frontend and the same
+// ZAP check a server makes (zap_handler.h) against the same authorised-clients file, so a
+// key not in it never completes the handshake. The backend stays plain: the workers are
+// the broker's own, on a network that only they reach (bind it on a private interface).
+// A key removed from the file (ReloadClients, SIGHUP) cannot connect again, but the proxy
+// does not look at requests, so connections it admitted before keep working until they
+// close; restart the broker to cut them at once.
+//
 // Thread-safe: Stop() may be called from any thread, once the broker has started.
 #pragma once
 
@@ -19,6 +27,7 @@
 #include <string>
 
 #include "common/util/status.h"
+#include "server/server_options.h"
 
 namespace sceneloc {
 
@@ -28,6 +37,9 @@ struct BrokerOptions {
   // Largest message read from a client, bytes; a larger one disconnects it (ZMQ_MAXMSGSIZE).
   // Twice the servers' default limits.max_message_bytes, as the servers themselves set it.
   int64_t max_message_bytes = int64_t{16} << 20;
+  // CURVE and the authorised-clients check on the frontend: the auth: section of a server's
+  // settings (its enabled, server_key and clients mean the same here).
+  AuthOptions auth;
 
   Status Validate() const;
 };
@@ -36,11 +48,15 @@ class Broker {
  public:
   virtual ~Broker() = default;
   // Binds both endpoints and starts forwarding on its own thread. Errors: invalid options
-  // (InvalidArgument), an endpoint that cannot be bound (IoError naming it).
+  // (InvalidArgument), an endpoint that cannot be bound (IoError naming it), an unreadable
+  // server key or clients file (the error names it).
   static StatusOr<std::unique_ptr<Broker>> Start(const BrokerOptions& options);
   // The endpoints actually bound (tcp://127.0.0.1:* becomes the port the system chose).
   virtual std::string frontend() const = 0;
   virtual std::string backend() const = 0;
+  // Re-reads auth.clients for the connections made from now on; on an error the old list
+  // stays in force. FailedPrecondition without auth.
+  virtual Status ReloadClients() = 0;
   // Stops forwarding and closes both sockets; messages in flight are dropped (their
   // clients retry). Also done by the destructor.
   virtual void Stop() = 0;

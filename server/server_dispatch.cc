@@ -40,6 +40,15 @@ void ZmqServer::ReadRequest(bool draining) {
       return ToClient(in.identity, in.delimited, *refusal);
     }
   }
+  if (job->parsed && job->request.kind_case() == v1::Request::kReloadMap &&
+      !options_.connect.empty()) {
+    // Behind a broker a request reaches one worker of many, and any client that reaches
+    // the broker could send it: a reload there would put the fleet out of step.
+    return refuse(v1::FAILED_PRECONDITION,
+                  "reload_map is not taken through a broker (it would reach one worker of "
+                  "many): put the map file in every worker's maps folder (each reloads it on "
+                  "its own) or send each worker SIGHUP");
+  }
   if (zap_ != nullptr) {
     job->client = UserOf(in.payload);
     const Status allowed = CheckPermission(job->client, job->parsed ? &job->request : nullptr);

@@ -168,7 +168,8 @@ Status ServerOptions::Validate() const {
   if (!connect.empty() && auth.enabled) {
     return InvalidArgument(
         "server.connect (worker mode) cannot be combined with auth.enabled: clients "
-        "authenticate with the server they connect to, which is then the broker");
+        "authenticate with the server they connect to, which is then the broker (give "
+        "sceneloc-broker --server-key and --clients)");
   }
   return matching.Validate();
 }

@@ -10,6 +10,7 @@
 #include "client/client.h"
 #include "common/keys/keys.h"
 #include "tests/server/server_test_support.h"
+#include "tests/server/test_keys.h"
 
 namespace sceneloc {
 namespace {
@@ -24,13 +25,9 @@ class AuthTest : public ::testing::Test {
  protected:
   void SetUp() override {
     maps_ = std::make_unique<test::TempMapsDir>("auth");
-    keys_ = fs::path(maps_->path()) / "keys";
-    for (const char* name : {"server", "robot", "ops", "stranger"}) {
-      auto pair = GenerateKeyPair(name);
-      ASSERT_TRUE(pair.ok());
-      ASSERT_TRUE(WriteKeyPair(*pair, keys_.string(), false).ok());
-      pairs_[name] = *pair;
-    }
+    keys_ = std::make_unique<test::TestKeys>(
+        (fs::path(maps_->path()) / "keys").string(),
+        std::vector<std::string>{"server", "robot", "ops", "stranger"});
     WriteClients({{"robot", false}, {"ops", true}});
     options_ = test::TestServerOptions();
     options_.maps_dir = maps_->path();
@@ -40,35 +37,21 @@ class AuthTest : public ::testing::Test {
     options_.auth.clients = Key("clients.yaml");
   }
 
-  std::string Key(const std::string& file) const { return (keys_ / file).string(); }
-
+  std::string Key(const std::string& file) const { return keys_->Path(file); }
   void WriteClients(const std::vector<std::pair<std::string, bool>>& clients) {
-    std::ofstream out(Key("clients.yaml"));
-    out << "clients:\n";
-    for (const auto& [name, admin] : clients) {
-      out << "  - name: " << name << "\n    public_key: \"" << pairs_[name].public_key << "\"\n"
-          << (admin ? "    admin: true\n" : "");
-    }
+    keys_->WriteClients(clients);
   }
 
   // A client with `name`'s key (empty: no CURVE at all).
   std::unique_ptr<Client> Connect(const std::string& endpoint, const std::string& name,
                                   int timeout_ms = 20000) {
-    ClientOptions options;
-    options.timeout_ms = timeout_ms;
-    options.retries = 0;
-    if (!name.empty()) {
-      options.key_file = Key(name + ".key");
-      options.server_key_file = Key("server.pub");
-    }
-    auto client = Client::Connect(endpoint, options);
+    auto client = Client::Connect(endpoint, keys_->ClientWith(name, timeout_ms));
     EXPECT_TRUE(client.ok()) << client.status().ToString();
     return client.ok() ? std::move(client).value() : nullptr;
   }
 
   std::unique_ptr<test::TempMapsDir> maps_;
-  fs::path keys_;
-  std::map<std::string, KeyPair> pairs_;
+  std::unique_ptr<test::TestKeys> keys_;
   ServerOptions options_;
 };
 
@@ -171,9 +154,9 @@ TEST_F(AuthTest, ManyConnectionsOfOneKeyShareItsLimit) {
   for (int c = 0; c < kConnections; ++c) {
     zmq::socket_t& socket = sockets.emplace_back(context, zmq::socket_type::dealer);
     socket.set(zmq::sockopt::linger, 0);
-    socket.set(zmq::sockopt::curve_serverkey, pairs_["server"].public_key);
-    socket.set(zmq::sockopt::curve_publickey, pairs_["robot"].public_key);
-    socket.set(zmq::sockopt::curve_secretkey, pairs_["robot"].secret_key);
+    socket.set(zmq::sockopt::curve_serverkey, keys_->pair("server").public_key);
+    socket.set(zmq::sockopt::curve_publickey, keys_->pair("robot").public_key);
+    socket.set(zmq::sockopt::curve_secretkey, keys_->pair("robot").secret_key);
     socket.connect(server.endpoint);
     request.set_request_id(static_cast<uint64_t>(c + 1));
     socket.send(zmq::message_t(), zmq::send_flags::sndmore);
