@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <sstream>
 #include <type_traits>
 #include <utility>
@@ -62,9 +63,19 @@ std::string SettingField::FlagName() const {
 std::string SettingField::Name() const { return section + "." + key; }
 
 std::string FormatSettingNumber(double value) {
+  // Whole numbers below 1e15 (exact in a double) print as integers, so that an integer
+  // setting of 13 digits or more reads back as one; the largest range bounds stay short.
+  if (std::isfinite(value) && std::abs(value) < 1e15 && value == std::trunc(value)) {
+    return std::to_string(static_cast<int64_t>(value));
+  }
   std::ostringstream out;
   out.precision(12);
   out << value;
+  if (std::isfinite(value) && std::stod(out.str()) != value) {
+    out.str("");
+    out.precision(17);  // enough for every double to read back exactly
+    out << value;
+  }
   return out.str();
 }
 

@@ -70,7 +70,9 @@ Status CheckSetting(const SettingField& field);
 // CheckSetting over the whole table, in order; the first failure.
 Status CheckSettings(const SettingTable& table);
 
-// A number as settings print it: shortest form that reads back ("0.00625", "1e+06").
+// A number as settings print it, in a form that reads back exactly: whole numbers below
+// 1e15 as integers ("1000000", "1234567890123"), others in the shortest such form
+// ("0.00625", "1e+15").
 std::string FormatSettingNumber(double value);
 
 }  // namespace sceneloc

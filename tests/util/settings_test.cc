@@ -82,12 +82,19 @@ TEST(SettingsTest, FlagNamesAndDescriptions) {
   EXPECT_EQ(t[0].help, "how many");
 }
 
-// Numbers print in their shortest form that reads back.
-TEST(SettingsTest, FormatsNumbersShortest) {
+// Numbers print in a short form that reads back exactly: whole numbers as integers (an
+// integer setting of 13 digits must not become "1.23456789012e+12"), others shortest.
+TEST(SettingsTest, FormatsNumbersSoTheyReadBack) {
   EXPECT_EQ(FormatSettingNumber(0.00625), "0.00625");
   EXPECT_EQ(FormatSettingNumber(1.0), "1");
   EXPECT_EQ(FormatSettingNumber(8388608), "8388608");
+  EXPECT_EQ(FormatSettingNumber(1e6), "1000000");
+  EXPECT_EQ(FormatSettingNumber(1234567890123.0), "1234567890123");
+  EXPECT_EQ(FormatSettingNumber(-2e12), "-2000000000000");
   EXPECT_EQ(FormatSettingNumber(1e15), "1e+15");
+  for (const double v : {0.1 + 0.2, 1.0 / 3, 6.02214076e23, -0.00123456789012345}) {
+    EXPECT_EQ(std::stod(FormatSettingNumber(v)), v) << FormatSettingNumber(v);
+  }
 }
 
 }  // namespace
