@@ -1,5 +1,6 @@
 // The file system side of map files (common/map/map_file_io.h): atomic writes that leave
-// nothing behind, and a streaming source that checksums what it delivers.
+// nothing behind, and a streaming source that checksums what it delivers; (MapIoTest) the
+// same atomic writes as SaveMap makes them.
 #include "common/map/map_file_io.h"
 
 #include <fcntl.h>
@@ -14,6 +15,9 @@
 #include <vector>
 
 #include "common/map/crc32.h"
+#include "common/map/map_io.h"
+#include "tests/support/map_files.h"
+#include "tests/support/test_map.h"
 
 namespace sceneloc::map_io_internal {
 namespace {
@@ -134,3 +138,55 @@ TEST_F(MapFileIoTest, ReadPrefixStopsAtTheEnd) {
 
 }  // namespace
 }  // namespace sceneloc::map_io_internal
+
+namespace sceneloc {
+namespace {
+
+namespace fs = std::filesystem;
+using test::ExpectMapsEqual;
+using test::MakeRandomMap;
+
+// SaveMap's writes, which WriteFileAtomically makes.
+using MapIoTest = test::MapFileTest;
+
+// A successful save leaves only the map file: no temporary file behind.
+TEST_F(MapIoTest, SaveLeavesNoTemporaryFile) {
+  ASSERT_TRUE(SaveMap(MakeRandomMap(5, 30, 1), path_).ok());
+  EXPECT_EQ(DirectoryEntries(), std::vector<std::string>{"tour.map"});
+}
+
+// Saving over an existing map replaces it whole.
+TEST_F(MapIoTest, SaveReplacesExistingMap) {
+  ASSERT_TRUE(SaveMap(MakeRandomMap(5, 30, 1), path_).ok());
+  const Map second = MakeRandomMap(6, 10, 2);
+  ASSERT_TRUE(SaveMap(second, path_).ok());
+  const StatusOr<Map> loaded = LoadMap(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.status().ToString();
+  ExpectMapsEqual(second, *loaded);
+  EXPECT_EQ(DirectoryEntries(), std::vector<std::string>{"tour.map"});
+}
+
+// Saving into a folder that does not exist is an IoError naming the path, and creates
+// nothing.
+TEST_F(MapIoTest, SaveToMissingDirectoryFails) {
+  const std::string path = (dir_ / "no_such_dir" / "tour.map").string();
+  const Status status = SaveMap(MakeRandomMap(5, 30, 1), path);
+  EXPECT_EQ(status.code(), StatusCode::kIoError) << status.ToString();
+  EXPECT_NE(status.message().find(path), std::string::npos) << status.message();
+  EXPECT_NE(status.message().find("No such file or directory"), std::string::npos);
+  EXPECT_TRUE(DirectoryEntries().empty());
+}
+
+// When the final rename fails (the target is a folder) the temporary file is removed.
+TEST_F(MapIoTest, FailedRenameRemovesTemporaryFile) {
+  ASSERT_TRUE(fs::create_directory(path_));
+  ASSERT_TRUE(fs::create_directory(fs::path(path_) / "occupied"));
+  const Status status = SaveMap(MakeRandomMap(5, 30, 1), path_);
+  EXPECT_EQ(status.code(), StatusCode::kIoError) << status.ToString();
+  EXPECT_NE(status.message().find(path_), std::string::npos) << status.message();
+  EXPECT_EQ(DirectoryEntries(), std::vector<std::string>{"tour.map"});
+  EXPECT_TRUE(fs::is_directory(path_));
+}
+
+}  // namespace
+}  // namespace sceneloc

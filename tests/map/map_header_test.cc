@@ -1,5 +1,6 @@
 // The map file header (common/map/map_header.h): written at the documented offsets, read
-// back, and one distinct error for each way a header can be wrong.
+// back, and one distinct error for each way a header can be wrong, on bytes made here and
+// (MapIoTest) on whole map files loaded with LoadMap.
 #include "common/map/map_header.h"
 
 #include <gtest/gtest.h>
@@ -9,6 +10,8 @@
 #include <string>
 
 #include "common/map/crc32.h"
+#include "tests/support/map_files.h"
+#include "tests/support/test_map.h"
 
 namespace sceneloc::map_io_internal {
 namespace {
@@ -119,3 +122,76 @@ TEST(MapHeaderTest, HugePayloadSizeDoesNotOverflow) {
 
 }  // namespace
 }  // namespace sceneloc::map_io_internal
+
+namespace sceneloc {
+namespace {
+
+using test::MakeRandomMap;
+using test::PutU32;
+using test::Rechecksum;
+
+// The header's errors as LoadMap reports them for a file on disk.
+using MapIoTest = test::MapFileTest;
+
+// An empty file is DataLoss "is empty".
+TEST_F(MapIoTest, EmptyFileIsDataLoss) { ExpectLoadFails("", StatusCode::kDataLoss, "is empty"); }
+
+// A file cut anywhere, in the header or in the payload, is DataLoss "truncated" with
+// the expected and the actual size.
+TEST_F(MapIoTest, TruncatedFileIsDataLoss) {
+  const std::string bytes = SerializeMap(MakeRandomMap(10, 80, 3));
+  const size_t size = bytes.size();
+  for (size_t cut : {size_t{1}, size_t{4}, size_t{8}, size_t{11}, size_t{12}, size_t{20},
+                     size_t{31}, size_t{32}, size_t{33}, size / 2, size - 1}) {
+    SCOPED_TRACE("cut at " + std::to_string(cut));
+    const std::string expected_size = cut < kMapHeaderBytes ? "32" : std::to_string(size);
+    ExpectLoadFails(
+        bytes.substr(0, cut), StatusCode::kDataLoss,
+        "is truncated: expected " + expected_size + " bytes, found " + std::to_string(cut));
+  }
+}
+
+// A file that does not start with the magic is InvalidArgument "not a sceneloc map".
+TEST_F(MapIoTest, WrongMagicIsInvalidArgument) {
+  std::string bytes = SerializeMap(MakeRandomMap(4, 10, 3));
+  bytes[3] = 'X';
+  ExpectLoadFails(bytes, StatusCode::kInvalidArgument, "is not a sceneloc map (bad magic)");
+  ExpectLoadFails("landmarks: []\n", StatusCode::kInvalidArgument, "bad magic");
+  ExpectLoadFails("S", StatusCode::kDataLoss, "truncated");  // a prefix of the magic
+}
+
+// A file of a newer format version (with a valid header CRC) is Unimplemented and
+// says which versions this build reads.
+TEST_F(MapIoTest, NewerFormatVersionIsUnimplemented) {
+  for (uint32_t version : {kMapFormatVersion + 1, 77u}) {
+    std::string bytes = SerializeMap(MakeRandomMap(4, 10, 3));
+    PutU32(&bytes, 8, version);
+    Rechecksum(&bytes);
+    ExpectLoadFails(bytes, StatusCode::kUnimplemented,
+                    "has format version " + std::to_string(version) + ", this build reads up to " +
+                        std::to_string(kMapFormatVersion) + "; upgrade sceneloc");
+  }
+}
+
+// Header flags this build does not know are Unimplemented.
+TEST_F(MapIoTest, UnknownHeaderFlagsAreUnimplemented) {
+  std::string bytes = SerializeMap(MakeRandomMap(4, 10, 3));
+  PutU32(&bytes, 12, 1);
+  Rechecksum(&bytes);
+  ExpectLoadFails(bytes, StatusCode::kUnimplemented, "header flags 0x1");
+}
+
+// A damaged header (its CRC, or a field it covers) is DataLoss "header checksum
+// mismatch".
+TEST_F(MapIoTest, DamagedHeaderIsHeaderChecksumMismatch) {
+  const std::string good = SerializeMap(MakeRandomMap(4, 10, 3));
+  for (size_t at : {size_t{28}, size_t{31}, size_t{17}, size_t{25}}) {
+    SCOPED_TRACE("byte " + std::to_string(at));
+    std::string bytes = good;
+    bytes[at] ^= 0x04;
+    ExpectLoadFails(bytes, StatusCode::kDataLoss, "header checksum mismatch");
+  }
+}
+
+}  // namespace
+}  // namespace sceneloc

@@ -1,5 +1,8 @@
-// SaveMap / LoadMap / ParseMap: round trips, atomic writes, and one distinct error for
-// each way a map file can be missing, cut short or corrupt.
+// SaveMap / LoadMap / ParseMap (common/map/map_io.h): round trips, the checks LoadMap
+// makes itself (a missing or unreadable file, the size limit, the payload's checksum and
+// the map's validity) and what the parts report through it. The header's errors are in
+// map_header_test, atomic writes in map_file_io_test, hostile counts in
+// payload_archive_test.
 #include "common/map/map_io.h"
 
 #include <gtest/gtest.h>
@@ -7,13 +10,12 @@
 
 #include <cstring>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <random>
 #include <string>
 #include <vector>
 
 #include "common/map/crc32.h"
+#include "tests/support/map_files.h"
 #include "tests/support/test_map.h"
 
 namespace sceneloc {
@@ -21,35 +23,12 @@ namespace {
 
 namespace fs = std::filesystem;
 using test::ExpectMapsEqual;
+using test::GetU32;
+using test::GetU64;
 using test::MakeRandomMap;
-
-// Little-endian header fields, read and written by the test itself so that it checks
-// the documented layout rather than trusting map_io.cc.
-uint32_t GetU32(const std::string& b, size_t at) {
-  uint32_t v = 0;
-  for (int i = 3; i >= 0; --i) v = (v << 8) | static_cast<unsigned char>(b[at + i]);
-  return v;
-}
-
-uint64_t GetU64(const std::string& b, size_t at) {
-  return GetU32(b, at) | uint64_t{GetU32(b, at + 4)} << 32;
-}
-
-void PutU32(std::string* b, size_t at, uint32_t v) {
-  for (int i = 0; i < 4; ++i) (*b)[at + i] = static_cast<char>(v >> (8 * i));
-}
-
-void PutU64(std::string* b, size_t at, uint64_t v) {
-  PutU32(b, at, static_cast<uint32_t>(v));
-  PutU32(b, at + 4, static_cast<uint32_t>(v >> 32));
-}
-
-// Makes the header describe the (edited) payload again: size, payload CRC, header CRC.
-void Rechecksum(std::string* b) {
-  PutU64(b, 16, b->size() - kMapHeaderBytes);
-  PutU32(b, 24, Crc32(b->data() + kMapHeaderBytes, b->size() - kMapHeaderBytes));
-  PutU32(b, 28, Crc32(b->data(), 28));
-}
+using test::PutU32;
+using test::PutU64;
+using test::Rechecksum;
 
 // A map whose every option differs from its default and from the others, so a
 // serialiser that swapped or dropped a field would be caught.
@@ -93,53 +72,8 @@ Map MakeMapWithDistinctOptions() {
   return map;
 }
 
-class MapIoTest : public ::testing::Test {
- protected:
-  void SetUp() override {
-    const auto* test = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = fs::path(::testing::TempDir()) /
-           ("map_io_test_" + std::to_string(::getpid()) + "_" + test->name());
-    fs::remove_all(dir_);
-    ASSERT_TRUE(fs::create_directories(dir_));
-    path_ = (dir_ / "tour.map").string();
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  static void WriteBytes(const std::string& path, const std::string& bytes) {
-    std::ofstream out(path, std::ios::binary | std::ios::trunc);
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    ASSERT_TRUE(out.good()) << path;
-  }
-  static std::string ReadBytes(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  }
-  std::vector<std::string> DirectoryEntries() const {
-    std::vector<std::string> names;
-    for (const auto& entry : fs::directory_iterator(dir_)) {
-      names.push_back(entry.path().filename().string());
-    }
-    return names;
-  }
-  // Writes `bytes` to the map path, loads it, and checks the status code and that the
-  // message names the file and contains `expected`.
-  void ExpectLoadFails(const std::string& bytes, StatusCode code, const std::string& expected) {
-    WriteBytes(path_, bytes);
-    ExpectLoadFailsAt(path_, code, expected);
-  }
-  static void ExpectLoadFailsAt(const std::string& path, StatusCode code,
-                                const std::string& expected) {
-    const StatusOr<Map> loaded = LoadMap(path);
-    ASSERT_FALSE(loaded.ok()) << "loading " << path << " should fail";
-    const Status& status = loaded.status();
-    EXPECT_EQ(status.code(), code) << status.ToString();
-    EXPECT_NE(status.message().find("'" + path + "'"), std::string::npos) << status.message();
-    EXPECT_NE(status.message().find(expected), std::string::npos) << status.message();
-  }
-
-  fs::path dir_;
-  std::string path_;
-};
+// Save, load and parse through map_io's own entry points, in a folder of the test's own.
+using MapIoTest = test::MapFileTest;
 
 // Save then load gives back every field, and both report the same content checksum.
 TEST_F(MapIoTest, RoundTripKeepsEveryField) {
@@ -198,45 +132,6 @@ TEST_F(MapIoTest, HeaderMatchesDocumentedLayout) {
   EXPECT_EQ(GetU32(bytes, 32), 777u);
 }
 
-// A successful save leaves only the map file: no temporary file behind.
-TEST_F(MapIoTest, SaveLeavesNoTemporaryFile) {
-  ASSERT_TRUE(SaveMap(MakeRandomMap(5, 30, 1), path_).ok());
-  EXPECT_EQ(DirectoryEntries(), std::vector<std::string>{"tour.map"});
-}
-
-// Saving over an existing map replaces it whole.
-TEST_F(MapIoTest, SaveReplacesExistingMap) {
-  ASSERT_TRUE(SaveMap(MakeRandomMap(5, 30, 1), path_).ok());
-  const Map second = MakeRandomMap(6, 10, 2);
-  ASSERT_TRUE(SaveMap(second, path_).ok());
-  const StatusOr<Map> loaded = LoadMap(path_);
-  ASSERT_TRUE(loaded.ok()) << loaded.status().ToString();
-  ExpectMapsEqual(second, *loaded);
-  EXPECT_EQ(DirectoryEntries(), std::vector<std::string>{"tour.map"});
-}
-
-// Saving into a folder that does not exist is an IoError naming the path, and creates
-// nothing.
-TEST_F(MapIoTest, SaveToMissingDirectoryFails) {
-  const std::string path = (dir_ / "no_such_dir" / "tour.map").string();
-  const Status status = SaveMap(MakeRandomMap(5, 30, 1), path);
-  EXPECT_EQ(status.code(), StatusCode::kIoError) << status.ToString();
-  EXPECT_NE(status.message().find(path), std::string::npos) << status.message();
-  EXPECT_NE(status.message().find("No such file or directory"), std::string::npos);
-  EXPECT_TRUE(DirectoryEntries().empty());
-}
-
-// When the final rename fails (the target is a folder) the temporary file is removed.
-TEST_F(MapIoTest, FailedRenameRemovesTemporaryFile) {
-  ASSERT_TRUE(fs::create_directory(path_));
-  ASSERT_TRUE(fs::create_directory(fs::path(path_) / "occupied"));
-  const Status status = SaveMap(MakeRandomMap(5, 30, 1), path_);
-  EXPECT_EQ(status.code(), StatusCode::kIoError) << status.ToString();
-  EXPECT_NE(status.message().find(path_), std::string::npos) << status.message();
-  EXPECT_EQ(DirectoryEntries(), std::vector<std::string>{"tour.map"});
-  EXPECT_TRUE(fs::is_directory(path_));
-}
-
 // An invalid map is refused before anything is written; an existing file is kept.
 TEST_F(MapIoTest, SaveRefusesInvalidMap) {
   const Map good = MakeRandomMap(5, 30, 1);
@@ -259,33 +154,6 @@ TEST_F(MapIoTest, MissingFileIsNotFound) {
 // A folder where the file should be is an IoError.
 TEST_F(MapIoTest, DirectoryIsIoError) {
   ExpectLoadFailsAt(dir_.string(), StatusCode::kIoError, "not a regular file");
-}
-
-// An empty file is DataLoss "is empty".
-TEST_F(MapIoTest, EmptyFileIsDataLoss) { ExpectLoadFails("", StatusCode::kDataLoss, "is empty"); }
-
-// A file cut anywhere, in the header or in the payload, is DataLoss "truncated" with
-// the expected and the actual size.
-TEST_F(MapIoTest, TruncatedFileIsDataLoss) {
-  const std::string bytes = SerializeMap(MakeRandomMap(10, 80, 3));
-  const size_t size = bytes.size();
-  for (size_t cut : {size_t{1}, size_t{4}, size_t{8}, size_t{11}, size_t{12}, size_t{20},
-                     size_t{31}, size_t{32}, size_t{33}, size / 2, size - 1}) {
-    SCOPED_TRACE("cut at " + std::to_string(cut));
-    const std::string expected_size = cut < kMapHeaderBytes ? "32" : std::to_string(size);
-    ExpectLoadFails(
-        bytes.substr(0, cut), StatusCode::kDataLoss,
-        "is truncated: expected " + expected_size + " bytes, found " + std::to_string(cut));
-  }
-}
-
-// A file that does not start with the magic is InvalidArgument "not a sceneloc map".
-TEST_F(MapIoTest, WrongMagicIsInvalidArgument) {
-  std::string bytes = SerializeMap(MakeRandomMap(4, 10, 3));
-  bytes[3] = 'X';
-  ExpectLoadFails(bytes, StatusCode::kInvalidArgument, "is not a sceneloc map (bad magic)");
-  ExpectLoadFails("landmarks: []\n", StatusCode::kInvalidArgument, "bad magic");
-  ExpectLoadFails("S", StatusCode::kDataLoss, "truncated");  // a prefix of the magic
 }
 
 // A map written in format version 2 (tests/data/v2_map.scnl, before the octave layers
@@ -335,39 +203,6 @@ TEST(MapIoCompatibilityTest, VersionOneMapLoads) {
   test::ExpectMapsEqual(*map, *reloaded);
 }
 
-// A file of a newer format version (with a valid header CRC) is Unimplemented and
-// says which versions this build reads.
-TEST_F(MapIoTest, NewerFormatVersionIsUnimplemented) {
-  for (uint32_t version : {kMapFormatVersion + 1, 77u}) {
-    std::string bytes = SerializeMap(MakeRandomMap(4, 10, 3));
-    PutU32(&bytes, 8, version);
-    Rechecksum(&bytes);
-    ExpectLoadFails(bytes, StatusCode::kUnimplemented,
-                    "has format version " + std::to_string(version) + ", this build reads up to " +
-                        std::to_string(kMapFormatVersion) + "; upgrade sceneloc");
-  }
-}
-
-// Header flags this build does not know are Unimplemented.
-TEST_F(MapIoTest, UnknownHeaderFlagsAreUnimplemented) {
-  std::string bytes = SerializeMap(MakeRandomMap(4, 10, 3));
-  PutU32(&bytes, 12, 1);
-  Rechecksum(&bytes);
-  ExpectLoadFails(bytes, StatusCode::kUnimplemented, "header flags 0x1");
-}
-
-// A damaged header (its CRC, or a field it covers) is DataLoss "header checksum
-// mismatch".
-TEST_F(MapIoTest, DamagedHeaderIsHeaderChecksumMismatch) {
-  const std::string good = SerializeMap(MakeRandomMap(4, 10, 3));
-  for (size_t at : {size_t{28}, size_t{31}, size_t{17}, size_t{25}}) {
-    SCOPED_TRACE("byte " + std::to_string(at));
-    std::string bytes = good;
-    bytes[at] ^= 0x04;
-    ExpectLoadFails(bytes, StatusCode::kDataLoss, "header checksum mismatch");
-  }
-}
-
 // One flipped bit anywhere in the payload is DataLoss "checksum mismatch ... (corrupt
 // file)".
 TEST_F(MapIoTest, FlippedPayloadBitIsChecksumMismatch) {
@@ -391,22 +226,6 @@ TEST_F(MapIoTest, OutOfRangeIndexIsDataLoss) {
                   "map file '" + path_ +
                       "': neighbour 0 of landmark 0 refers to landmark 99999 "
                       "but the map has 80 landmarks");
-}
-
-// A count far larger than the file (checksummed, so only a bad writer or an attacker
-// makes it) is DataLoss, without trying to allocate for it.
-TEST_F(MapIoTest, HugeCountIsDataLossWithoutAllocating) {
-  std::string bytes = SerializeMap(MakeRandomMap(4, 10, 3));
-  const size_t name_at = bytes.find("frame_00000.jpg");
-  ASSERT_NE(name_at, std::string::npos);
-  // The image_names count precedes the first name's own length.
-  PutU64(&bytes, name_at - 16, uint64_t{1} << 61);
-  Rechecksum(&bytes);
-  ExpectLoadFails(bytes, StatusCode::kDataLoss, "image_names at payload offset");
-  PutU64(&bytes, name_at - 16, 4);
-  PutU64(&bytes, name_at - 8, ~uint64_t{0});  // the name's length
-  Rechecksum(&bytes);
-  ExpectLoadFails(bytes, StatusCode::kDataLoss, "is malformed");
 }
 
 // Bytes after the payload the header announces are DataLoss; so are payload bytes

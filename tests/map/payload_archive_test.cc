@@ -1,5 +1,6 @@
 // The field codec of map files (common/map/payload_archive.h): the documented byte layout
-// of each field kind, round trips, and a reader that fails safely on hostile counts.
+// of each field kind, round trips, and a reader that fails safely on hostile counts, here
+// and (MapIoTest) in a whole map file loaded with LoadMap.
 #include "common/map/payload_archive.h"
 
 #include <gtest/gtest.h>
@@ -8,6 +9,10 @@
 #include <limits>
 #include <string>
 #include <vector>
+
+#include "common/map/map_io.h"
+#include "tests/support/map_files.h"
+#include "tests/support/test_map.h"
 
 namespace sceneloc::map_io_internal {
 namespace {
@@ -155,3 +160,32 @@ TEST(PayloadArchiveTest, SourceErrorsPassThrough) {
 
 }  // namespace
 }  // namespace sceneloc::map_io_internal
+
+namespace sceneloc {
+namespace {
+
+using test::MakeRandomMap;
+using test::PutU64;
+using test::Rechecksum;
+
+// A hostile count in a whole map file, as LoadMap reports it.
+using MapIoTest = test::MapFileTest;
+
+// A count far larger than the file (checksummed, so only a bad writer or an attacker
+// makes it) is DataLoss, without trying to allocate for it.
+TEST_F(MapIoTest, HugeCountIsDataLossWithoutAllocating) {
+  std::string bytes = SerializeMap(MakeRandomMap(4, 10, 3));
+  const size_t name_at = bytes.find("frame_00000.jpg");
+  ASSERT_NE(name_at, std::string::npos);
+  // The image_names count precedes the first name's own length.
+  PutU64(&bytes, name_at - 16, uint64_t{1} << 61);
+  Rechecksum(&bytes);
+  ExpectLoadFails(bytes, StatusCode::kDataLoss, "image_names at payload offset");
+  PutU64(&bytes, name_at - 16, 4);
+  PutU64(&bytes, name_at - 8, ~uint64_t{0});  // the name's length
+  Rechecksum(&bytes);
+  ExpectLoadFails(bytes, StatusCode::kDataLoss, "is malformed");
+}
+
+}  // namespace
+}  // namespace sceneloc

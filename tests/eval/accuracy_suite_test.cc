@@ -1,0 +1,240 @@
+// The accuracy suite (tools/eval/accuracy_suite.h): which development sets a data folder
+// holds, the ablation variants as settings files read them, and sets, generated query
+// variants and whole suite runs on folders of generated tour JPEGs.
+#include "tools/eval/accuracy_suite.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "common/config/config.h"
+#include "common/synthetic/tour_generator.h"
+#include "tests/support/scratch_dir.h"
+#include "tests/support/tour_features.h"
+
+namespace sceneloc {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Each change has its own name, as the reports print it.
+TEST(AccuracySuiteTest, QueryChangesHaveTheirNames) {
+  EXPECT_STREQ(QueryChangeName(QueryChange::kNone), "none");
+  EXPECT_STREQ(QueryChangeName(QueryChange::kSmaller), "smaller");
+  EXPECT_STREQ(QueryChangeName(QueryChange::kDarker), "darker");
+  EXPECT_STREQ(QueryChangeName(QueryChange::kJpeg), "jpeg");
+  EXPECT_STREQ(QueryChangeName(QueryChange::kBlur), "blur");
+}
+
+std::vector<std::string> SetNames(const std::vector<SuiteSet>& sets) {
+  std::vector<std::string> names;
+  for (const SuiteSet& s : sets) names.push_back(s.name);
+  return names;
+}
+
+// With every folder present: all eight sets in order, the generated variants over the
+// Gardens Point day queries, and the other data set's folders as negatives.
+TEST(AccuracySuiteTest, DevelopmentSuiteOfAFullDataFolder) {
+  const test::ScratchDir data("suite");
+  for (const char* d : {"gardens_point/day_left", "gardens_point/day_right",
+                        "gardens_point/night_right", "corridor/ref", "corridor/query"}) {
+    fs::create_directories(data.path() / d);
+  }
+  const std::string root = data.path().string();
+  const std::vector<SuiteSet> sets = DevelopmentSuite(root);
+  EXPECT_EQ(SetNames(sets), (std::vector<std::string>{"gp_day", "gp_night_same", "gp_night_other",
+                                                      "corridor", "gp_day_smaller", "gp_day_darker",
+                                                      "gp_day_jpeg", "gp_day_blur"}));
+  ASSERT_EQ(sets.size(), 8u);
+  EXPECT_EQ(sets[0].tour_dir, root + "/gardens_point/day_left");
+  EXPECT_EQ(sets[0].queries_dir, root + "/gardens_point/day_right");
+  EXPECT_EQ(sets[0].negative_dirs,
+            (std::vector<std::string>{root + "/corridor/ref", root + "/corridor/query"}));
+  EXPECT_EQ(sets[1].tour_limit, 100);
+  EXPECT_EQ(sets[3].negative_dirs.size(), 3u);
+  const QueryChange changes[] = {QueryChange::kSmaller, QueryChange::kDarker, QueryChange::kJpeg,
+                                 QueryChange::kBlur};
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_EQ(sets[4 + i].change, changes[i]) << sets[4 + i].name;
+    EXPECT_EQ(sets[4 + i].queries_dir, sets[0].queries_dir);
+  }
+}
+
+// Sets whose folders are missing are left out, and so are missing negative folders.
+TEST(AccuracySuiteTest, DevelopmentSuiteLeavesOutWhatIsMissing) {
+  const test::ScratchDir data("suite");
+  EXPECT_TRUE(DevelopmentSuite(data.File("absent")).empty());
+  fs::create_directories(data.path() / "gardens_point/day_left");
+  fs::create_directories(data.path() / "gardens_point/day_right");
+  const std::vector<SuiteSet> sets = DevelopmentSuite(data.path().string());
+  EXPECT_EQ(SetNames(sets), (std::vector<std::string>{"gp_day", "gp_day_smaller", "gp_day_darker",
+                                                      "gp_day_jpeg", "gp_day_blur"}));
+  for (const SuiteSet& s : sets) EXPECT_TRUE(s.negative_dirs.empty()) << s.name;
+}
+
+// Every ablation variant has its own name and reads as settings files do; the first is our
+// defaults, and each other either takes the paper's settings or changes a setting.
+TEST(AccuracySuiteTest, AblationVariantsAreValidSettings) {
+  const std::vector<AblationVariant> variants = AblationVariants();
+  ASSERT_FALSE(variants.empty());
+  EXPECT_EQ(variants[0].name, "default");
+  EXPECT_TRUE(variants[0].train_yaml.empty() && variants[0].match_yaml.empty());
+  std::set<std::string> names;
+  const std::string train_default = TrainOptionsToYaml(TrainOptions());
+  const std::string match_default = MatchOptionsToYaml(MatchOptions());
+  for (const AblationVariant& v : variants) {
+    SCOPED_TRACE(v.name);
+    EXPECT_TRUE(names.insert(v.name).second) << "a second variant of this name";
+    if (v.train_yaml == "@paper" || v.match_yaml == "@paper") continue;
+    TrainOptions train;
+    MatchOptions match;
+    ASSERT_TRUE(ParseTrainOptions(v.train_yaml, v.name, &train).ok());
+    ASSERT_TRUE(ParseMatchOptions(v.match_yaml, v.name, &match).ok());
+    const bool changes =
+        TrainOptionsToYaml(train) != train_default || MatchOptionsToYaml(match) != match_default;
+    EXPECT_EQ(changes, v.name != "default");
+  }
+}
+
+// Folders of generated JPEGs: a tour, the test pass of the same route (truth: the same
+// file name) and frames of another scene (negatives).
+constexpr int kLocations = 5;
+
+class SuiteRunTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    set_.name = "generated";
+    set_.tour_dir = dir_.File("tour");
+    set_.queries_dir = dir_.File("queries");
+    ASSERT_TRUE(WriteTour(test::SmallTour(kLocations), set_.tour_dir, kTrainingPass).ok());
+    ASSERT_TRUE(WriteTour(test::SmallTour(kLocations), set_.queries_dir, kTestPass).ok());
+    context_.cache_dir = dir_.File("cache");
+    context_.threads = 2;
+    extractor_.working_size = 320;  // the generated frames' own size
+  }
+
+  const test::ScratchDir dir_{"suite"};
+  SuiteSet set_;
+  SuiteContext context_;
+  ExtractorOptions extractor_;
+};
+
+// A set's features with the truth by file name; the limits take the first images; a second
+// load reads the same features from the cache.
+TEST_F(SuiteRunTest, LoadSetExtractsWithTruthByName) {
+  set_.tour_limit = 4;
+  set_.query_limit = 3;
+  const auto data = LoadSet(set_, extractor_, context_);
+  ASSERT_TRUE(data.ok()) << data.status().ToString();
+  EXPECT_EQ(data->tour.size(), 4u);
+  EXPECT_EQ(data->queries.size(), 3u);
+  EXPECT_EQ(data->truth, (std::vector<int>{0, 1, 2}));
+  EXPECT_EQ(data->query_names[2], TourImageName(2));
+  EXPECT_EQ(data->extractor.working_size, 320);
+  for (const FeatureSet& q : data->queries) EXPECT_EQ(q.image_width, data->tour[0].image_width);
+  const auto again = LoadSet(set_, extractor_, context_);
+  ASSERT_TRUE(again.ok());
+  for (size_t i = 0; i < 3; ++i) test::ExpectFeatureSetsEqual(again->queries[i], data->queries[i]);
+
+  set_.tour_limit = 2;  // query 2's tour image is not in the map
+  const auto missing = LoadSet(set_, extractor_, context_);
+  EXPECT_EQ(missing.status().code(), StatusCode::kNotFound);
+}
+
+// Where LoadSet writes the generated variant of query `i` of `set`.
+fs::path VariantPath(const SuiteSet& set, const SuiteContext& context, int i) {
+  return fs::path(context.cache_dir) / "variants" / (set.name + "_" + std::to_string(kLocations)) /
+         TourImageName(i);
+}
+
+double Sharpness(const cv::Mat& image) {
+  cv::Mat grey, laplacian;
+  cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  cv::Laplacian(grey, laplacian, CV_64F);
+  cv::Scalar mean, stddev;
+  cv::meanStdDev(laplacian, mean, stddev);
+  return stddev[0];
+}
+
+// Each change is written once as JPEG files under the cache, and the changed queries are
+// extracted in the map's frame: a third of the size, darker, blurred, or more compressed.
+TEST_F(SuiteRunTest, GeneratedVariantsChangeTheQueries) {
+  const std::string query = set_.queries_dir + "/" + TourImageName(1);
+  const cv::Mat original = cv::imread(query);
+  ASSERT_FALSE(original.empty());
+  // Loads the set with `change` and decodes its variant of query 1.
+  const auto load = [&](QueryChange change) {
+    set_.change = change;
+    set_.name = QueryChangeName(change);
+    const auto data = LoadSet(set_, extractor_, context_);
+    EXPECT_TRUE(data.ok()) << data.status().ToString();
+    if (data.ok()) {
+      EXPECT_EQ(data->queries[1].image_width, data->tour[0].image_width);
+    }
+    return cv::imread(VariantPath(set_, context_, 1).string());
+  };
+  const cv::Mat smaller = load(QueryChange::kSmaller);
+  EXPECT_EQ(smaller.cols, cvRound(original.cols / 3.0));
+  EXPECT_EQ(smaller.rows, cvRound(original.rows / 3.0));
+  EXPECT_LT(cv::mean(load(QueryChange::kDarker))[1], 0.5 * cv::mean(original)[1]);
+  EXPECT_LT(Sharpness(load(QueryChange::kBlur)), 0.5 * Sharpness(original));
+  EXPECT_EQ(load(QueryChange::kJpeg).size(), original.size());
+  EXPECT_LT(fs::file_size(VariantPath(set_, context_, 1)), fs::file_size(query));
+
+  // Written once: a variant already there is used as it is.
+  const std::string kept = test::ReadFileBytes(query);
+  test::WriteFileBytes(VariantPath(set_, context_, 1).string(), kept);
+  load(QueryChange::kJpeg);
+  EXPECT_EQ(test::ReadFileBytes(VariantPath(set_, context_, 1).string()), kept);
+
+  context_.cache_dir.clear();
+  const auto without_cache = LoadSet(set_, extractor_, context_);
+  EXPECT_EQ(without_cache.status().code(), StatusCode::kInvalidArgument);
+}
+
+// A whole set: both maps trained, every query answered by all four methods and the
+// session, the negatives counted; the figures are those of the answers.
+TEST_F(SuiteRunTest, RunSetAnswersEveryQueryWithEveryMethod) {
+  ASSERT_TRUE(WriteTour(test::SmallTour(3, 9), dir_.File("elsewhere"), kTrainingPass).ok());
+  set_.negative_dirs = {dir_.File("elsewhere")};
+  SuiteSettings settings;
+  settings.train.extractor = extractor_;
+  ASSERT_TRUE(
+      LoadTrainOptions(SCENELOC_CONFIGS_DIR "/paper-train.yaml", &settings.paper_train).ok());
+  ASSERT_TRUE(
+      LoadMatchOptions(SCENELOC_CONFIGS_DIR "/paper-match.yaml", &settings.paper_match).ok());
+  const auto result = RunSet(set_, settings, context_);
+  ASSERT_TRUE(result.ok()) << result.status().ToString();
+  EXPECT_EQ(result->locations, kLocations);
+  EXPECT_GT(result->landmarks, 0);
+  ASSERT_EQ(result->outcomes.size(), static_cast<size_t>(kLocations));
+  EXPECT_EQ(result->paper_outcomes.size(), static_cast<size_t>(kLocations));
+  EXPECT_EQ(result->session_outcomes.size(), static_cast<size_t>(kLocations));
+  for (int q = 0; q < kLocations; ++q) {
+    EXPECT_EQ(result->outcomes[q].truth, q);
+    EXPECT_EQ(result->outcomes[q].name, TourImageName(q));
+    EXPECT_GE(result->outcomes[q].baseline.predicted, 0);
+  }
+  EXPECT_EQ(result->summary.queries, static_cast<size_t>(kLocations));
+  EXPECT_TRUE(result->summary.has_baseline);
+  const MethodSummary ours = SummariseMethod(
+      result->outcomes, Method::kOurs, {settings.train.tolerance, settings.match.min_confidence});
+  for (int k = 0; k <= kMaxTolerance; ++k) {
+    EXPECT_EQ(result->summary.ours.match_rate[k], ours.match_rate[k]);
+    if (k > 0) {
+      EXPECT_GE(ours.match_rate[k], ours.match_rate[k - 1]);
+    }
+  }
+  EXPECT_GT(ours.match_rate[1], 0.5);
+  EXPECT_EQ(result->session.confidence.threshold, settings.match.sequence.min_confidence);
+  EXPECT_EQ(result->negatives, 3u);
+  EXPECT_LE(result->negatives_accepted, result->negatives);
+}
+
+}  // namespace
+}  // namespace sceneloc
