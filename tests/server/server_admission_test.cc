@@ -1,7 +1,7 @@
 // Admission (server/server_admission.cc) through a real server: what the I/O thread
 // refuses OVERLOADED rather than queue (one connection's share, the bytes held, the
-// estimated wait), and the decode memory budget the admitted JPEG requests share. Load
-// sensitive: the margins are deliberate.
+// estimated wait), that a connection's share is freed by its answers, and the decode memory
+// budget the admitted JPEG requests share. Load sensitive: the margins are deliberate.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -165,6 +165,39 @@ TEST(ServerDecodeBudgetTest, DecodesShareTheMemoryBudget) {
   EXPECT_NE(refused.error().find("progressive JPEG needs about 81000000 bytes"), std::string::npos)
       << refused.error();
   EXPECT_NE(refused.error().find("limits.max_decode_bytes"), std::string::npos) << refused.error();
+}
+
+// A connection's share (limits.max_in_flight_per_client, here 1) is held only while its
+// requests are queued or running: a request sent behind a slow one is OVERLOADED, and once
+// both are answered the same connection's next request is worked on.
+TEST(ServerAdmissionTest, AConnectionsShareIsFreedByItsAnswers) {
+  ServerOptions options = test::OneWorkerOptions();
+  options.limits.max_in_flight_per_client = 1;
+  test::TestServer server = test::StartTestServer(options);
+  ASSERT_NE(server.server, nullptr);
+  zmq::context_t context;
+  zmq::socket_t socket(context, zmq::socket_type::dealer);
+  socket.set(zmq::sockopt::linger, 0);
+  socket.connect(server.endpoint);
+  auto send = [&](v1::Request request, uint64_t id) {
+    request.set_request_id(id);
+    SendFrames(&socket, {"", request.SerializeAsString()});
+  };
+  send(LocaliseJpeg(LargeJpeg(3)), 1);  // holds the worker a while
+  send(LocaliseFeatures(test::TourFeatures(3)), 2);
+  std::map<uint64_t, v1::Reply> replies;
+  CollectReplies(&socket, 2, [&](const v1::Reply& reply) { replies[reply.request_id()] = reply; });
+  EXPECT_EQ(replies[1].status(), v1::OK) << replies[1].error();
+  EXPECT_EQ(replies[2].status(), v1::OVERLOADED) << replies[2].error();
+  EXPECT_NE(replies[2].error().find("limits.max_in_flight_per_client"), std::string::npos)
+      << replies[2].error();
+
+  send(LocaliseFeatures(test::TourFeatures(3)), 3);
+  CollectReplies(&socket, 1, [&](const v1::Reply& reply) {
+    EXPECT_EQ(reply.request_id(), 3u);
+    ASSERT_EQ(reply.status(), v1::OK) << reply.error();
+    EXPECT_EQ(reply.localise().locations(0).index(), 3);
+  });
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 // How the I/O thread routes a request (server/server_dispatch.cc) through a real server:
-// list_maps and reload_map answered, an unknown map NOT_FOUND, localise refused OVERLOADED
-// when the queue is full, a flood of reloads coalesced.
+// stats and list_maps answered inline even while every worker is busy, reload_map handed
+// to the map loader, localise queued for the workers or refused OVERLOADED when the queue
+// is full, an unknown map NOT_FOUND, and refusals before parsing that keep the request id.
 #include <gtest/gtest.h>
 
 #include <optional>
@@ -123,6 +124,54 @@ TEST(ServerOverloadTest, ReloadFloodIsCoalescedAndBounded) {
   const auto stopping = std::chrono::steady_clock::now();
   server.server->Shutdown();
   EXPECT_LT(std::chrono::steady_clock::now() - stopping, std::chrono::seconds(10));
+}
+
+// stats and list_maps are answered on the I/O thread, not queued behind localise work:
+// with the one worker busy and JPEG requests waiting, a stats reply still counts them in
+// flight (a stats request queued behind them would find them all answered).
+TEST(ServerDispatchTest, CheapRequestsAreAnsweredWhileTheWorkersAreBusy) {
+  ServerOptions options = test::OneWorkerOptions();
+  test::TestServer server = test::StartTestServer(options);
+  ASSERT_NE(server.server, nullptr);
+  constexpr int kRequests = 6;
+  test::Burst burst(server.endpoint, LocaliseJpeg(test::TourJpegs()[4]), kRequests);
+  auto client = MustConnect(server.endpoint);
+  ASSERT_NE(client, nullptr);
+  // Once the server has read the whole burst, a stats reply counts what is still queued
+  // or running, and itself.
+  const std::optional<v1::StatsReply> stats = AwaitRequests(client.get(), kRequests);
+  ASSERT_TRUE(stats.has_value());
+  EXPECT_GE(stats->in_flight(), 2u);
+  auto maps = client->ListMaps();
+  ASSERT_TRUE(maps.ok()) << maps.status().ToString();
+  EXPECT_EQ(maps->maps_size(), 1);
+  // The burst is answered too (or refused, if the one worker fell far behind).
+  EXPECT_EQ(burst.CountOkOr(v1::OVERLOADED, "").ids.size(), static_cast<size_t>(kRequests));
+}
+
+// A request refused before it is parsed keeps the request id at the front of its bytes:
+// one over limits.max_message_bytes (RESOURCE_EXHAUSTED, naming the limit) and one whose
+// bytes are not a Request (INVALID_ARGUMENT).
+TEST(ServerDispatchTest, RefusalsBeforeParsingKeepTheRequestId) {
+  ServerOptions options = test::TestServerOptions();
+  options.limits.max_message_bytes = 4096;
+  test::TestServer server = test::StartTestServer(options);
+  ASSERT_NE(server.server, nullptr);
+  // Over the limit but under twice it (ZMQ_MAXMSGSIZE), so ZeroMQ passes it on.
+  v1::Request oversized = LocaliseJpeg(std::string(6000, 'x'));
+  oversized.set_request_id(300);
+  v1::Reply reply = RawCall(server.endpoint, {"", oversized.SerializeAsString()});
+  EXPECT_EQ(reply.status(), v1::RESOURCE_EXHAUSTED) << reply.error();
+  EXPECT_EQ(reply.request_id(), 300u);
+  EXPECT_NE(reply.error().find("bytes; at most 4096 are accepted"), std::string::npos)
+      << reply.error();
+
+  // Field 1 (request_id) = 42, then bytes that no Request parses from.
+  reply = RawCall(server.endpoint, {"", std::string("\x08\x2a\xff\xff\xff", 5)});
+  EXPECT_EQ(reply.status(), v1::INVALID_ARGUMENT) << reply.error();
+  EXPECT_EQ(reply.request_id(), 42u);
+  EXPECT_NE(reply.error().find("not a valid sceneloc.v1.Request"), std::string::npos)
+      << reply.error();
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 // The worker threads (server/server_workers.cc) through a real server: the pool answers
-// many clients at once and parses the requests too large for the I/O thread.
+// many clients at once, parses the requests too large for the I/O thread and checks them
+// as it would, and does not work on a request that waited too long for it.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -82,6 +83,43 @@ TEST(ServerFairnessTest, LargeRequestsAreParsedByWorkers) {
   ASSERT_EQ(reply.status(), v1::OK) << reply.error();
   EXPECT_EQ(reply.request_id(), 42u);
   EXPECT_NEAR(reply.localise().locations(0).index(), 7, 1);
+}
+
+// A request too large for the I/O thread to parse gets the worker's check of its protocol:
+// one of a newer protocol is UNIMPLEMENTED naming both versions, with its request id, and
+// not marked retry_elsewhere (this server is no broker's worker).
+TEST(ServerWorkersTest, LargeRequestOfANewerProtocolIsRefused) {
+  test::TestServer server = test::StartTestServer(test::TestServerOptions());
+  ASSERT_NE(server.server, nullptr);
+  v1::Request request = LocaliseJpeg(std::string(100 << 10, 'x'));  // never decoded
+  request.set_request_id(43);
+  request.set_protocol(kProtocolVersion + 1);
+  const v1::Reply reply = RawCall(server.endpoint, {"", request.SerializeAsString()});
+  EXPECT_EQ(reply.status(), v1::UNIMPLEMENTED) << reply.error();
+  EXPECT_EQ(reply.request_id(), 43u);
+  EXPECT_NE(reply.error().find("protocol " + std::to_string(kProtocolVersion + 1) +
+                               "; this server speaks " + std::to_string(kProtocolVersion)),
+            std::string::npos)
+      << reply.error();
+  EXPECT_FALSE(reply.retry_elsewhere());
+}
+
+// A request that waited for the one worker longer than twice limits.max_queue_wait_ms
+// (here 2 x 50 ms, while the worker was on a large JPEG) is answered OVERLOADED without
+// being worked on, saying so; the one the worker took at once is answered. (A fresh server
+// has no estimate of a request's cost, so it admits the whole burst.)
+TEST(ServerWorkersTest, RequestsThatWaitedTooLongAreNotWorkedOn) {
+  ServerOptions options = test::OneWorkerOptions();
+  options.limits.max_queue_wait_ms = 50;
+  test::TestServer server = test::StartTestServer(options);
+  ASSERT_NE(server.server, nullptr);
+  constexpr int kRequests = 3;
+  test::Burst burst(server.endpoint, LocaliseJpeg(LargeJpeg(5)), kRequests);
+  const test::Burst::Counts counts = burst.CountOkOr(
+      v1::OVERLOADED, "more than twice limits.max_queue_wait_ms (50); it was not worked on");
+  EXPECT_EQ(static_cast<int>(counts.ids.size()), kRequests);
+  EXPECT_GE(counts.ok, 1);
+  EXPECT_GE(counts.refused, 1);
 }
 
 }  // namespace
