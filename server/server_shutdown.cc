@@ -24,9 +24,13 @@ void ZmqServer::Shutdown() {
 
 void ZmqServer::FinishDrain() {
   for (std::unique_ptr<Job>& job : queue_.Close()) {
-    const v1::Reply reply = ErrorReply(job->request.request_id(), v1::UNAVAILABLE,
-                                       "server shut down before this request was started");
-    Record(KindName(job->request), &job->request, reply, job->received);
+    // A large request is parsed by the worker that takes it: one still queued has only its
+    // bytes, so its id is read from them (as Dispatch does).
+    const uint64_t id = job->parsed ? job->request.request_id() : PeekRequestId(job->raw);
+    const v1::Reply reply =
+        ErrorReply(id, v1::UNAVAILABLE, "server shut down before this request was started");
+    Record(job->parsed ? KindName(job->request) : "localise", job->parsed ? &job->request : nullptr,
+           reply, job->received);
     ToClient(job->identity, job->delimited, reply);
     --outstanding_;
   }
