@@ -149,7 +149,7 @@ TEST(SettingsTableTest, DocumentedFormLayout) {
       "body:\n"
       "  wheels: 4                   # wheels on the ground; [2, 8]\n"
       "  speed: 1.5                  # [0, 3] m/s\n"
-      "  memory: 1000000             # [1024, 1e+13] bytes\n"
+      "  memory: 1000000             # [1024, 10000000000000] bytes\n"
       "  lights: false               # headlights on\n"
       "# How it moves.\n"
       "# Two lines.\n"
