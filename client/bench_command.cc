@@ -25,7 +25,15 @@ StatusOr<std::string> ReadBytes(const std::string& path) {
   return bytes.str();
 }
 
-// Every image of the folder as a ready request: read (and extracted) once, here.
+// The feature set of one image file's bytes.
+StatusOr<FeatureSet> ExtractFile(const ClientExtractor& extractor, const std::string& bytes) {
+  SCENELOC_ASSIGN_OR_RETURN(const cv::Mat image,
+                            DecodeImage(bytes, extractor.options().max_image_side));
+  return extractor.Extract(image);
+}
+
+// Every image of the folder as a ready request: read (and extracted) once, here. An image
+// that cannot be decoded or extracted fails the whole preparation, naming its file.
 StatusOr<std::vector<LoadQuery>> PrepareQueries(const BenchArgs& args) {
   SCENELOC_ASSIGN_OR_RETURN(const std::vector<std::string> paths, ListImageFiles(args.image_dir));
   std::optional<ClientExtractor> extractor;
@@ -41,11 +49,12 @@ StatusOr<std::vector<LoadQuery>> PrepareQueries(const BenchArgs& args) {
       queries.push_back(JpegQuery(FileName(path), std::move(bytes)));
       continue;
     }
-    SCENELOC_ASSIGN_OR_RETURN(const cv::Mat image,
-                              DecodeImage(bytes, extractor->options().max_image_side));
-    SCENELOC_ASSIGN_OR_RETURN(const FeatureSet features, extractor->Extract(image));
+    auto features = ExtractFile(*extractor, bytes);
+    if (!features.ok()) {
+      return Status(features.status().code(), path + ": " + features.status().message());
+    }
     queries.push_back(
-        FeatureQuery(FileName(path), features,
+        FeatureQuery(FileName(path), *features,
                      args.uint8 ? DescriptorEncoding::kUint8 : DescriptorEncoding::kFloat32));
   }
   return queries;

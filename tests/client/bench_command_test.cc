@@ -109,7 +109,7 @@ TEST_F(BenchCommandTest, UnreadableInputsExitTwo) {
         a->features = true;
         a->map_file = test::TestMapPath();
       },
-      "image bytes are not a decodable JPEG or PNG");
+      images_.File("q9.jpg") + ": image bytes are not a decodable JPEG or PNG");
 }
 
 // Against the real server: every request answered, exit 0, and the JSON holds the run as
