@@ -37,11 +37,7 @@ class ZmqBroker final : public Broker {
     std::string where;
     try {
       where = options_.frontend;
-      if (zap_ != nullptr) {
-        frontend_.set(zmq::sockopt::curve_server, true);
-        frontend_.set(zmq::sockopt::curve_secretkey, zap_->server_key().secret_key);
-        frontend_.set(zmq::sockopt::zap_domain, "sceneloc");
-      }
+      if (zap_ != nullptr) zap_->Secure(&frontend_);
       frontend_.set(zmq::sockopt::maxmsgsize, options_.max_message_bytes);
       frontend_.set(zmq::sockopt::linger, 0);
       frontend_.bind(options_.frontend);

@@ -42,11 +42,7 @@ Status ZmqServer::Bind() {
     zap_ = std::move(zap).value();
   }
   try {
-    if (zap_ != nullptr) {
-      frontend_.set(zmq::sockopt::curve_server, true);
-      frontend_.set(zmq::sockopt::curve_secretkey, zap_->server_key().secret_key);
-      frontend_.set(zmq::sockopt::zap_domain, "sceneloc");
-    }
+    if (zap_ != nullptr) zap_->Secure(&frontend_);
     frontend_.set(zmq::sockopt::maxmsgsize, 2 * options_.limits.max_message_bytes);
     frontend_.set(zmq::sockopt::linger, kLingerMs);
     if (options_.connect.empty()) {

@@ -139,4 +139,10 @@ void ZapHandler::Answer() {
   socket_.send(zmq::message_t(), zmq::send_flags::none);
 }
 
+void ZapHandler::Secure(zmq::socket_t* socket) const {
+  socket->set(zmq::sockopt::curve_server, true);
+  socket->set(zmq::sockopt::curve_secretkey, server_key_.secret_key);
+  socket->set(zmq::sockopt::zap_domain, "sceneloc");
+}
+
 }  // namespace sceneloc

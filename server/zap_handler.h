@@ -41,6 +41,9 @@ class ZapHandler {
   ~ZapHandler();  // stops and joins the handler thread
 
   const KeyPair& server_key() const { return server_key_; }
+  // Makes `socket` a CURVE server with this key whose connections this handler admits.
+  // Call before it binds. Throws zmq::error_t as socket options do.
+  void Secure(zmq::socket_t* socket) const;
   // The role of the key named `user_id` in the clients file as it is now.
   Role RoleOf(const std::string& user_id) const EXCLUDES(mutex_);
   // Re-reads the clients file; on an error the old list stays in force.
