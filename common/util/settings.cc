@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <sstream>
 #include <type_traits>
 #include <utility>
@@ -71,7 +72,9 @@ std::string FormatSettingNumber(double value) {
   std::ostringstream out;
   out.precision(12);
   out << value;
-  if (std::isfinite(value) && std::stod(out.str()) != value) {
+  // strtod, not stod: stod throws out_of_range on a subnormal (ERANGE on underflow), and a
+  // map file can carry any double (found by fuzz_map).
+  if (std::isfinite(value) && std::strtod(out.str().c_str(), nullptr) != value) {
     out.str("");
     out.precision(17);  // enough for every double to read back exactly
     out << value;

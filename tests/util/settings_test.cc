@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 #include <string>
 
@@ -95,6 +96,21 @@ TEST(SettingsTest, FormatsNumbersSoTheyReadBack) {
   for (const double v : {0.1 + 0.2, 1.0 / 3, 6.02214076e23, -0.00123456789012345}) {
     EXPECT_EQ(std::stod(FormatSettingNumber(v)), v) << FormatSettingNumber(v);
   }
+}
+
+// A subnormal value (a map file can hold any double) prints and reads back; it used to
+// throw out_of_range from std::stod, which the map fuzzer found.
+TEST(SettingsTest, FormatsSubnormalNumbers) {
+  for (const double v : {4.9406564584124654e-324, -1.5e-310, 2.2250738585072e-309}) {
+    const std::string text = FormatSettingNumber(v);
+    EXPECT_EQ(std::strtod(text.c_str(), nullptr), v) << text;
+  }
+  // A subnormal outside its range is refused with a message, not an exception.
+  Example e;
+  e.ratio = -1.5e-310;
+  const Status s = CheckSettings(ExampleSettings(&e));
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("a.ratio = -1.5"), std::string::npos) << s.message();
 }
 
 }  // namespace
