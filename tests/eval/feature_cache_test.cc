@@ -1,11 +1,13 @@
 // The experiment runner's feature cache (tools/eval/feature_cache.h) on real JPEG files of a
 // generated tour: an entry is written once and read back instead of extracting, its key is
-// the folder listing (names and sizes), the extractor settings and the frame, and an entry
-// that fails its checks is a miss that is rebuilt.
+// the folder listing (names, sizes and modification times), the extractor settings and the
+// frame, and an entry that fails its checks is a miss that is rebuilt.
 #include "tools/eval/feature_cache.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <chrono>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -72,7 +74,9 @@ TEST_F(FeatureCacheTest, AnEntryIsReadInsteadOfExtracting) {
   ASSERT_EQ(Entries().size(), 1u);
 
   for (const std::string& path : paths_) {
+    const auto mtime = fs::last_write_time(path);  // the key holds it: keep it
     test::WriteFileBytes(path, std::string(fs::file_size(path), 'x'));
+    fs::last_write_time(path, mtime);
   }
   EXPECT_FALSE(Extract("").ok()) << "the garbage images can be extracted: the test proves nothing";
   const auto cached = Extract(cache_);
@@ -106,6 +110,27 @@ TEST_F(FeatureCacheTest, SettingsListingFrameAndSizesKeyTheEntry) {
   EXPECT_EQ(Entries().size(), 5u);
 }
 
+// An image replaced by another of the same size is a miss: the key holds each file's
+// modification time. (Both images are first padded to one size; JPEG ignores what follows
+// its end marker.)
+TEST_F(FeatureCacheTest, AnImageReplacedByOneOfTheSameSizeIsAMiss) {
+  std::string first = test::ReadFileBytes(paths_[0]), second = test::ReadFileBytes(paths_[1]);
+  const size_t size = std::max(first.size(), second.size());
+  first.resize(size, '\0');
+  second.resize(size, '\0');
+  test::WriteFileBytes(paths_[0], first);
+  test::WriteFileBytes(paths_[1], second);
+  ASSERT_TRUE(Extract(cache_).ok());
+  ASSERT_EQ(Entries().size(), 1u);
+  const auto mtime = fs::last_write_time(paths_[1]);
+  test::WriteFileBytes(paths_[1], first);
+  fs::last_write_time(paths_[1], mtime + std::chrono::seconds(10));
+  const auto replaced = Extract(cache_);
+  ASSERT_TRUE(replaced.ok()) << replaced.status().ToString();
+  EXPECT_EQ(Entries().size(), 2u);
+  test::ExpectFeatureSetsEqual((*replaced)[1], (*replaced)[0]);  // the new image's features
+}
+
 // A truncated entry, one of another cache version and one of garbage are each a miss: the
 // features are extracted again, equal to a fresh extraction, and the entry rewritten whole.
 TEST_F(FeatureCacheTest, ADamagedEntryIsRebuilt) {
@@ -117,14 +142,48 @@ TEST_F(FeatureCacheTest, ADamagedEntryIsRebuilt) {
   std::string other_version = good;
   other_version[0] = static_cast<char>(other_version[0] + 1);
   const std::vector<FeatureSet> fresh = Fresh();
-  for (const std::string& damaged : {good.substr(0, good.size() / 2), good.substr(0, 6),
-                                     other_version, std::string(good.size(), '\xff')}) {
+  std::string flipped = good;  // one bit of one descriptor: only the checksum sees it
+  flipped[good.size() / 2] = static_cast<char>(flipped[good.size() / 2] ^ 0x10);
+  for (const std::string& damaged :
+       {good.substr(0, good.size() / 2), good.substr(0, 6), other_version, flipped,
+        good + "trailing", std::string(good.size(), '\xff')}) {
     test::WriteFileBytes(entry, damaged);
     const auto rebuilt = Extract(cache_);
     ASSERT_TRUE(rebuilt.ok()) << rebuilt.status().ToString();
     ExpectSame(*rebuilt, fresh);
     EXPECT_EQ(test::ReadFileBytes(entry), good);
   }
+}
+
+// An entry made for other images, renamed to this listing's entry name (what a hash
+// collision would look like), is a miss: the entry holds its whole key.
+TEST_F(FeatureCacheTest, AnEntryOfAnotherKeyIsAMiss) {
+  ASSERT_TRUE(ExtractCached({paths_[0], paths_[1], paths_[0]}, options_, cache_, 1).ok());
+  ASSERT_EQ(Entries().size(), 1u);
+  const fs::path foreign = fs::path(cache_) / Entries().front();
+  const std::string foreign_bytes = test::ReadFileBytes(foreign.string());
+  ASSERT_TRUE(Extract(cache_).ok());
+  ASSERT_EQ(Entries().size(), 2u);
+  const std::vector<std::string> names = Entries();
+  const fs::path own = fs::path(cache_) / (names[0] == foreign.filename() ? names[1] : names[0]);
+  test::WriteFileBytes(own.string(), foreign_bytes);
+  const auto read = Extract(cache_);
+  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  ExpectSame(*read, Fresh());
+}
+
+// When the entry cannot be written (its name is taken by a folder), the features are still
+// returned and no temporary file is left behind.
+TEST_F(FeatureCacheTest, AnEntryThatCannotBeWrittenLeavesNothing) {
+  ASSERT_TRUE(Extract(cache_).ok());
+  const fs::path entry = fs::path(cache_) / Entries().front();
+  fs::remove(entry);
+  fs::create_directory(entry);
+  fs::create_directory(entry / "occupied");  // a non-empty folder: rename cannot replace it
+  const auto sets = Extract(cache_);
+  ASSERT_TRUE(sets.ok()) << sets.status().ToString();
+  ExpectSame(*sets, Fresh());
+  EXPECT_EQ(test::DirectoryEntries(cache_), std::vector<std::string>{entry.filename().string()});
 }
 
 // The folder form lists the images in name order and returns their file names; a missing

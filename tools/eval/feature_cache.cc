@@ -1,11 +1,13 @@
 #include "tools/eval/feature_cache.h"
 
-#include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <iterator>
 #include <sstream>
 
+#include "common/map/crc32.h"
 #include "common/training/trainer.h"
 #include "common/util/image_folder.h"
 
@@ -13,95 +15,157 @@ namespace sceneloc {
 namespace {
 
 // 4: context descriptors read one octave up (issue 10; 3 was a variant of it).
-constexpr uint32_t kCacheVersion = 4;
+// 5: the entry holds its whole key and ends with a CRC-32 of everything before it.
+constexpr uint32_t kCacheVersion = 5;
 
-// Identifies a cache entry: the folder, its files (names and sizes) and the options.
+// Identifies a cache entry: the options, the frame, and every file (path, size and
+// modification time, so an image replaced by another of the same size is a miss). Fields
+// are separated, so no two different listings give the same text.
 std::string CacheKey(const std::vector<std::string>& paths, const ExtractorOptions& o,
                      const ExtractionTarget* frame) {
   std::ostringstream key;
-  key << kCacheVersion << ' ' << o.max_features << ' ' << o.working_size << ' ' << o.context_scale
-      << ' ' << o.contrast_threshold << ' ' << o.edge_threshold << ' ' << o.sigma << ' '
-      << o.octave_layers << ' ' << o.holistic.cols << ' ' << o.holistic.cell_pixels << ' '
-      << o.holistic.bins << ' ' << o.clahe_clip << ' ' << o.root_sift;
+  key << "sceneloc features " << kCacheVersion << ' ' << o.max_features << ' ' << o.working_size
+      << ' ' << o.context_scale << ' ' << o.contrast_threshold << ' ' << o.edge_threshold << ' '
+      << o.sigma << ' ' << o.octave_layers << ' ' << o.holistic.cols << ' '
+      << o.holistic.cell_pixels << ' ' << o.holistic.bins << ' ' << o.clahe_clip << ' '
+      << o.root_sift;
   if (frame != nullptr) {
     key << " query " << frame->width << ' ' << frame->holistic.cols << ' ' << frame->holistic.rows
         << ' ' << frame->holistic.bins;
   }
-  std::error_code ec;
   for (const auto& p : paths) {
-    key << std::filesystem::absolute(p).string() << std::filesystem::file_size(p, ec);
+    std::error_code ec;
+    const auto size = std::filesystem::file_size(p, ec);
+    const auto mtime = std::filesystem::last_write_time(p, ec).time_since_epoch().count();
+    key << '\n' << std::filesystem::absolute(p).string() << '\t' << size << '\t' << mtime;
   }
+  return key.str();
+}
+
+// The entry's file name: a hash of the key (the entry holds the key itself, so a collision
+// is a miss, never the wrong features).
+std::string EntryName(const std::string& key) {
   std::ostringstream name;
-  name << std::hex << std::hash<std::string>{}(key.str()) << ".features";
+  name << std::hex << std::hash<std::string>{}(key) << ".features";
   return name.str();
 }
 
 template <typename T>
-void Put(std::ofstream& out, const T& v) {
-  out.write(reinterpret_cast<const char*>(&v), sizeof(T));
+void Put(std::string* out, const T& v) {
+  out->append(reinterpret_cast<const char*>(&v), sizeof(T));
 }
-template <typename T>
-bool Get(std::ifstream& in, T* v) {
-  return static_cast<bool>(in.read(reinterpret_cast<char*>(v), sizeof(T)));
+void PutBytes(std::string* out, const void* data, size_t bytes) {
+  out->append(static_cast<const char*>(data), bytes);
 }
 
-void Write(const std::string& path, const std::vector<FeatureSet>& sets) {
+// Reads from a byte buffer; every read is bounds-checked and a failed one stays failed.
+class Reader {
+ public:
+  explicit Reader(const std::string& bytes) : bytes_(bytes) {}
+  bool Bytes(void* out, size_t n) {
+    if (!ok_ || n > bytes_.size() - pos_) return ok_ = false;
+    std::memcpy(out, bytes_.data() + pos_, n);
+    pos_ += n;
+    return true;
+  }
+  template <typename T>
+  bool Get(T* v) {
+    return Bytes(v, sizeof(T));
+  }
+  bool AtEnd() const { return ok_ && pos_ == bytes_.size(); }
+
+ private:
+  const std::string& bytes_;
+  size_t pos_ = 0;
+  bool ok_ = true;
+};
+
+std::string Serialise(const std::string& key, const std::vector<FeatureSet>& sets) {
+  std::string out;
+  Put(&out, kCacheVersion);
+  Put(&out, static_cast<uint64_t>(key.size()));
+  out += key;
+  Put(&out, static_cast<uint64_t>(sets.size()));
+  for (const FeatureSet& f : sets) {
+    Put(&out, f.image_width);
+    Put(&out, f.image_height);
+    Put(&out, static_cast<uint64_t>(f.keypoints.size()));
+    PutBytes(&out, f.keypoints.data(), f.keypoints.size() * sizeof(Keypoint));
+    PutBytes(&out, f.local.data(), static_cast<size_t>(f.local.size()) * sizeof(float));
+    PutBytes(&out, f.context.data(), static_cast<size_t>(f.context.size()) * sizeof(float));
+    Put(&out, f.holistic_grid);
+    PutBytes(&out, f.holistic.data(), f.holistic.size() * sizeof(float));
+  }
+  Put(&out, Crc32(out.data(), out.size()));
+  return out;
+}
+
+// Writes the entry through a temporary file renamed into place, so a reader never sees half
+// an entry; on any failure the cache is left without it (and without the temporary file).
+void Write(const std::string& path, const std::string& bytes) {
   const std::string tmp = path + ".tmp";
+  bool written = false;
   {
-    std::ofstream out(tmp, std::ios::binary);
-    Put(out, kCacheVersion);
-    Put(out, static_cast<uint64_t>(sets.size()));
-    for (const FeatureSet& f : sets) {
-      Put(out, f.image_width);
-      Put(out, f.image_height);
-      Put(out, static_cast<uint64_t>(f.keypoints.size()));
-      out.write(reinterpret_cast<const char*>(f.keypoints.data()),
-                static_cast<std::streamsize>(f.keypoints.size() * sizeof(Keypoint)));
-      out.write(reinterpret_cast<const char*>(f.local.data()),
-                static_cast<std::streamsize>(f.local.size() * sizeof(float)));
-      out.write(reinterpret_cast<const char*>(f.context.data()),
-                static_cast<std::streamsize>(f.context.size() * sizeof(float)));
-      Put(out, f.holistic_grid);
-      out.write(reinterpret_cast<const char*>(f.holistic.data()),
-                static_cast<std::streamsize>(f.holistic.size() * sizeof(float)));
-    }
-    if (!out) return;
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    out.flush();
+    written = static_cast<bool>(out);
   }
-  std::filesystem::rename(tmp, path);
+  std::error_code ec;
+  if (written) std::filesystem::rename(tmp, path, ec);
+  if (!written || ec) std::filesystem::remove(tmp, ec);
 }
 
-bool Read(const std::string& path, size_t expected, std::vector<FeatureSet>* sets) {
-  std::ifstream in(path, std::ios::binary);
-  uint32_t version = 0;
+bool ParseSets(Reader* in, size_t expected, std::vector<FeatureSet>* sets) {
   uint64_t count = 0;
-  if (!Get(in, &version) || version != kCacheVersion || !Get(in, &count) || count != expected) {
-    return false;
-  }
+  if (!in->Get(&count) || count != expected) return false;
   sets->resize(count);
   for (FeatureSet& f : *sets) {
     uint64_t n = 0;
-    if (!Get(in, &f.image_width) || !Get(in, &f.image_height) || !Get(in, &n) || n > 1000000) {
+    if (!in->Get(&f.image_width) || !in->Get(&f.image_height) || !in->Get(&n) || n > 1000000) {
       return false;
     }
     f.keypoints.resize(n);
     f.local.resize(static_cast<Eigen::Index>(n), kDescriptorSize);
     f.context.resize(static_cast<Eigen::Index>(n), kDescriptorSize);
-    in.read(reinterpret_cast<char*>(f.keypoints.data()),
-            static_cast<std::streamsize>(n * sizeof(Keypoint)));
-    in.read(reinterpret_cast<char*>(f.local.data()),
-            static_cast<std::streamsize>(f.local.size() * sizeof(float)));
-    in.read(reinterpret_cast<char*>(f.context.data()),
-            static_cast<std::streamsize>(f.context.size() * sizeof(float)));
-    if (!Get(in, &f.holistic_grid) || f.holistic_grid.size() < 0 ||
+    if (!in->Bytes(f.keypoints.data(), n * sizeof(Keypoint)) ||
+        !in->Bytes(f.local.data(), static_cast<size_t>(f.local.size()) * sizeof(float)) ||
+        !in->Bytes(f.context.data(), static_cast<size_t>(f.context.size()) * sizeof(float)) ||
+        !in->Get(&f.holistic_grid) || f.holistic_grid.size() < 0 ||
         f.holistic_grid.size() > 1000000) {
       return false;
     }
     f.holistic.resize(static_cast<size_t>(f.holistic_grid.size()));
-    in.read(reinterpret_cast<char*>(f.holistic.data()),
-            static_cast<std::streamsize>(f.holistic.size() * sizeof(float)));
-    if (!in) return false;
+    if (!in->Bytes(f.holistic.data(), f.holistic.size() * sizeof(float))) return false;
   }
   return true;
+}
+
+// Reads the entry at `path` if it is whole (its CRC matches), of this version, made for
+// exactly `key`, and holds `expected` feature sets with nothing after them.
+bool Read(const std::string& path, const std::string& key, size_t expected,
+          std::vector<FeatureSet>* sets) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return false;
+  std::ifstream file(path, std::ios::binary);
+  if (!file) return false;
+  const std::string bytes((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  uint32_t crc = 0;
+  if (bytes.size() < sizeof(crc)) return false;
+  const size_t body = bytes.size() - sizeof(crc);
+  std::memcpy(&crc, bytes.data() + body, sizeof(crc));
+  if (crc != Crc32(bytes.data(), body)) return false;
+  const std::string content = bytes.substr(0, body);
+  Reader in(content);
+  uint32_t version = 0;
+  uint64_t key_size = 0;
+  if (!in.Get(&version) || version != kCacheVersion || !in.Get(&key_size) ||
+      key_size != key.size()) {
+    return false;
+  }
+  std::string stored(key.size(), '\0');
+  if (!in.Bytes(stored.data(), stored.size()) || stored != key) return false;
+  return ParseSets(&in, expected, sets) && in.AtEnd();
 }
 
 }  // namespace
@@ -110,13 +174,14 @@ StatusOr<std::vector<FeatureSet>> ExtractCached(const std::vector<std::string>& 
                                                 const ExtractorOptions& options,
                                                 const std::string& cache_dir, int threads,
                                                 const ExtractionTarget* map_frame) {
-  std::string entry;
+  std::string key, entry;
   if (!cache_dir.empty()) {
     std::error_code ec;
     std::filesystem::create_directories(cache_dir, ec);
-    entry = cache_dir + "/" + CacheKey(paths, options, map_frame);
+    key = CacheKey(paths, options, map_frame);
+    entry = cache_dir + "/" + EntryName(key);
     std::vector<FeatureSet> cached;
-    if (Read(entry, paths.size(), &cached)) return cached;
+    if (Read(entry, key, paths.size(), &cached)) return cached;
   }
   std::vector<FeatureSet> sets;
   if (map_frame == nullptr) {
@@ -127,7 +192,7 @@ StatusOr<std::vector<FeatureSet>> ExtractCached(const std::vector<std::string>& 
     };
     SCENELOC_ASSIGN_OR_RETURN(sets, ExtractImages(paths, options, target, threads, nullptr));
   }
-  if (!entry.empty()) Write(entry, sets);
+  if (!entry.empty()) Write(entry, Serialise(key, sets));
   return sets;
 }
 

@@ -14,7 +14,8 @@
 namespace sceneloc {
 
 // Extracts the features of the images in `dir` with `options`, or reads them from
-// `cache_dir` when an entry made from the same folder listing, options and frame exists.
+// `cache_dir` when an entry made from the same files (paths, sizes, modification times),
+// options and frame exists.
 // An empty cache_dir disables caching. Without `map_frame` the folder is a tour (every image
 // in the tour frame of the first, ExtractFolder); with it, a query folder extracted for a
 // map made in that frame (QueryTarget).
