@@ -126,6 +126,8 @@ void VerifyCandidates(const FeatureSet& features, const Map& map, const FrameSco
   verify_options.ransac_threshold_px = options.verify_ransac_threshold * map.frame_long_side();
   verify_options.max_iterations = options.verify_ransac_iterations;
   verify_options.angle_tolerance_deg = options.verify_angle_tolerance;
+  verify_options.estimator =
+      options.verify_estimator == "ransac" ? VerifyEstimator::kRansac : VerifyEstimator::kUsac;
   auto verify = [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) {
       CandidateEvidence& c = (*candidates)[i];

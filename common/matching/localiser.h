@@ -63,6 +63,9 @@ struct MatchOptions {
   double verify_ransac_threshold = 0.00625;
   // RANSAC iterations per verified candidate at most (its cost grows linearly with this).
   int verify_ransac_iterations = 200;
+  // The fundamental-matrix search (VerifyEstimator in verification.h): "usac" (RANSAC with
+  // SPRT, the default) or "ransac" (OpenCV's classic FM_RANSAC, as before 2026-12-03).
+  std::string verify_estimator = "usac";
   // Orientation check of verification (verification.h): correspondences whose keypoint
   // orientations differ by more than this many degrees are dropped (0 = none).
   double verify_angle_tolerance = 30;

@@ -40,6 +40,9 @@ SettingTable MatchSettings(MatchOptions* o) {
           .Help("RANSAC inlier distance, fraction of the long side (3 px at 480)"),
       Setting("matching", "verify_ransac_iterations", &o->verify_ransac_iterations)
           .Range(1, 100000),
+      Setting("matching", "verify_estimator", &o->verify_estimator)
+          .Choices({"usac", "ransac"})
+          .Help("usac: RANSAC with SPRT (fast); ransac: OpenCV's classic FM_RANSAC"),
       Setting("matching", "verify_angle_tolerance", &o->verify_angle_tolerance)
           .Range(0, 180)
           .Unit("degrees")

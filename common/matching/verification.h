@@ -22,9 +22,23 @@ struct Verification {
   float log_scale = 0;      // median log(query size / tour size) over the inliers
 };
 
+// How the fundamental matrix is searched for. Both maximise the number of correspondences
+// within the threshold of a 7-point hypothesis, with at most max_iterations hypotheses.
+enum class VerifyEstimator {
+  // OpenCV's USAC framework, configured as plain RANSAC (inlier count, uniform sampling, no
+  // local optimisation) but with its SPRT test, which drops a wrong hypothesis after a few
+  // points instead of scoring all of them, and its DEGENSAC check of planar samples. About a
+  // sixth of kRansac's time; the same accuracy within RANSAC's own sampling noise
+  // (docs/results.md, "Verification").
+  kUsac,
+  // OpenCV's classic FM_RANSAC (cv::findFundamentalMat), used before 2026-12-03.
+  kRansac,
+};
+
 struct VerifyOptions {
   double ransac_threshold_px = 3.0;  // epipolar inlier distance, pixels of the map frame
   int max_iterations = 200;          // RANSAC iterations at most
+  VerifyEstimator estimator = VerifyEstimator::kUsac;
   // A correspondence whose query and tour keypoint orientations differ by more than this is
   // dropped before RANSAC (an upright camera does not roll between visits, so a true match
   // keeps its orientation). 0 = no orientation check; maps without orientations have none.

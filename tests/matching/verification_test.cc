@@ -6,7 +6,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <random>
+#include <thread>
 
 #include "tests/support/two_view.h"
 
@@ -56,24 +58,34 @@ Scene MakeScene(int landmarks, int first_random, float size_ratio, uint32_t seed
   return s;
 }
 
-Verification Verify(const Scene& s, const VerifyOptions& options = {}) {
+Verification Verify(const Scene& s, VerifyOptions options = {},
+                    VerifyEstimator estimator = VerifyEstimator::kUsac) {
+  options.estimator = estimator;
   return VerifyCandidate(s.query, s.map, 0, s.best_score, s.best_feature, options);
 }
 
+// Every property holds for both estimators (USAC, the default, and classic RANSAC).
+class VerificationTest : public ::testing::TestWithParam<VerifyEstimator> {
+ protected:
+  Verification Run(const Scene& s, const VerifyOptions& options = {}) const {
+    return Verify(s, options, GetParam());
+  }
+};
+
 // A true two-view geometry: every correspondence is an inlier, and the scale is the
 // query's size over the tour's.
-TEST(VerificationTest, TrueGeometryIsAllInliers) {
+TEST_P(VerificationTest, TrueGeometryIsAllInliers) {
   const Scene s = MakeScene(40, 40, 1.5f, 3);
-  const Verification v = Verify(s);
+  const Verification v = Run(s);
   EXPECT_EQ(v.correspondences, 40);
   EXPECT_EQ(v.inliers, 40);
   EXPECT_NEAR(v.log_scale, std::log(1.5f), 1e-5);
 }
 
 // Random correspondences mixed in are mostly rejected; the true ones stay inliers.
-TEST(VerificationTest, RandomCorrespondencesAreRejected) {
+TEST_P(VerificationTest, RandomCorrespondencesAreRejected) {
   const Scene s = MakeScene(60, 45, 1.0f, 4);
-  const Verification v = Verify(s);
+  const Verification v = Run(s);
   EXPECT_EQ(v.correspondences, 60);
   EXPECT_GE(v.inliers, 45);
   EXPECT_LE(v.inliers, 50);
@@ -82,20 +94,20 @@ TEST(VerificationTest, RandomCorrespondencesAreRejected) {
 
 // Only landmarks the query matched (a best feature and a positive score) count; with
 // fewer than 8 correspondences there is no RANSAC and no inlier.
-TEST(VerificationTest, OnlyMatchedLandmarksCount) {
+TEST_P(VerificationTest, OnlyMatchedLandmarksCount) {
   Scene s = MakeScene(20, 20, 1.0f, 5);
   for (int g = 0; g < 20; g += 2) s.best_feature[g] = -1;
   s.best_score[1] = 0;
-  EXPECT_EQ(Verify(s).correspondences, 9);
+  EXPECT_EQ(Run(s).correspondences, 9);
   for (int g = 1; g < 20; g += 4) s.best_score[g] = 0;
-  const Verification few = Verify(s);
+  const Verification few = Run(s);
   EXPECT_EQ(few.correspondences, 5);
   EXPECT_EQ(few.inliers, 0);
 }
 
 // With an orientation tolerance, a correspondence whose orientations differ by more is
 // dropped; the difference is taken around the circle (355 and 5 degrees are 10 apart).
-TEST(VerificationTest, OrientationCheckDropsTurnedMatches) {
+TEST_P(VerificationTest, OrientationCheckDropsTurnedMatches) {
   Scene s = MakeScene(30, 30, 1.0f, 6);
   for (int g = 0; g < 10; ++g) s.query.keypoints[g].angle = 180;
   for (int g = 10; g < 20; ++g) {
@@ -103,20 +115,56 @@ TEST(VerificationTest, OrientationCheckDropsTurnedMatches) {
     s.map.observation_angle[2 * g] = 5;
   }
   VerifyOptions options;
-  EXPECT_EQ(Verify(s, options).correspondences, 30);  // no check by default
+  EXPECT_EQ(Run(s, options).correspondences, 30);  // no check by default
   options.angle_tolerance_deg = 20;
-  EXPECT_EQ(Verify(s, options).correspondences, 20);
+  EXPECT_EQ(Run(s, options).correspondences, 20);
   s.map.observation_angle.clear();  // a map without orientations is not checked
-  EXPECT_EQ(Verify(s, options).correspondences, 30);
+  EXPECT_EQ(Run(s, options).correspondences, 30);
 }
 
-// The same input gives the same answer (RANSAC's random state is fixed).
-TEST(VerificationTest, Deterministic) {
+// A query taken where the tour camera stood sees every point where the tour saw it (the
+// points are related by a homography, degenerate for a fundamental matrix): every
+// correspondence still counts as an inlier.
+TEST_P(VerificationTest, TheTourCamerasOwnViewpointVerifies) {
+  Scene s = MakeScene(30, 30, 1.0f, 8);
+  for (int g = 0; g < 30; ++g) {
+    s.query.keypoints[g].x = s.map.observation_x[2 * g];
+    s.query.keypoints[g].y = s.map.observation_y[2 * g];
+  }
+  const Verification v = Run(s);
+  EXPECT_EQ(v.correspondences, 30);
+  EXPECT_EQ(v.inliers, 30);
+}
+
+// The same input gives the same answer, on any thread (each call seeds its own state).
+TEST_P(VerificationTest, Deterministic) {
   const Scene s = MakeScene(50, 20, 1.2f, 7);
-  const Verification a = Verify(s), b = Verify(s);
+  const Verification a = Run(s);
+  Verification b;
+  std::thread other([&] { b = Run(s); });  // and on another thread
+  other.join();
   EXPECT_EQ(a.inliers, b.inliers);
   EXPECT_EQ(a.log_scale, b.log_scale);
 }
+
+// Both estimators find the same inliers where the geometry is clear (true and random
+// correspondences mixed), so switching between them does not change what an inlier means.
+TEST(VerificationEstimatorsTest, AgreeOnAClearScene) {
+  for (uint32_t seed = 10; seed < 15; ++seed) {
+    const Scene s = MakeScene(80, 50, 1.1f, seed);
+    const Verification usac = Verify(s, {}, VerifyEstimator::kUsac);
+    const Verification ransac = Verify(s, {}, VerifyEstimator::kRansac);
+    EXPECT_GE(usac.inliers, 50) << seed;
+    EXPECT_LE(std::abs(usac.inliers - ransac.inliers), 3) << seed;
+    EXPECT_NEAR(usac.log_scale, ransac.log_scale, 1e-5) << seed;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Estimators, VerificationTest,
+                         ::testing::Values(VerifyEstimator::kUsac, VerifyEstimator::kRansac),
+                         [](const ::testing::TestParamInfo<VerifyEstimator>& info) {
+                           return info.param == VerifyEstimator::kUsac ? "Usac" : "Ransac";
+                         });
 
 }  // namespace
 }  // namespace sceneloc
