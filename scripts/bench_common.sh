@@ -4,6 +4,15 @@
 # stops it (SIGTERM, waits). rss_mb prints its resident memory.
 # shellcheck shell=bash
 
+# configs_of BUILD: the configs/ folder of the source tree BUILD was configured from, so a
+# previous commit's server reads the settings files it knows (a newer file may hold keys
+# it refuses).
+configs_of() {
+  local src
+  src="$(sed -n 's/^CMAKE_HOME_DIRECTORY:INTERNAL=//p' "$1/CMakeCache.txt" 2>/dev/null)"
+  echo "${src:-$root}/configs"
+}
+
 server_pid=""
 stop_server() {
   if [[ -n "$server_pid" ]] && kill -0 "$server_pid" 2>/dev/null; then
@@ -18,7 +27,7 @@ probe_args=()
 start_server() {
   local name=$1; shift
   local log="$out/server-$name.log"
-  "$build/server/sceneloc-server" --config "$root/configs/server.yaml" --maps "$out/maps" \
+  "$build/server/sceneloc-server" --config "$(configs_of "$build")/server.yaml" --maps "$out/maps" \
     --endpoint 'tcp://127.0.0.1:*' --log-level info "$@" >"$log" 2>&1 &
   server_pid=$!
   endpoint=""
@@ -26,7 +35,7 @@ start_server() {
   until [[ -n "$endpoint" ]] &&
     "$client" maps --server "$endpoint" --timeout-ms 500 "${probe_args[@]}" >/dev/null 2>&1; do
     ((SECONDS < deadline)) || { cat "$log" >&2; echo "${0##*/}: server did not start" >&2; exit 1; }
-    endpoint="$(grep -o 'on tcp://127\.0\.0\.1:[0-9]*' "$log" | head -n1 | cut -c4- || true)"
+    endpoint="$(grep -so 'on tcp://127\.0\.0\.1:[0-9]*' "$log" | head -n1 | cut -c4- || true)"
     sleep 0.2
   done
 }
@@ -44,6 +53,6 @@ train_gp_map() {
   mkdir -p "$out/maps"
   if [[ ! -f "$out/maps/gp.scnl" ]]; then
     "$build/tools/sceneloc-train" --tour "$1/day_left" --out "$out/maps/gp.scnl" \
-      --config "$root/configs/train.yaml" | tail -n 4
+      --config "$(configs_of "$build")/train.yaml" | tail -n 4
   fi
 }
