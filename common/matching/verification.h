@@ -28,8 +28,8 @@ enum class VerifyEstimator {
   // OpenCV's USAC framework, configured as plain RANSAC (inlier count, uniform sampling, no
   // local optimisation) but with its SPRT test, which drops a wrong hypothesis after a few
   // points instead of scoring all of them, and its DEGENSAC check of planar samples. About a
-  // sixth of kRansac's time; the same accuracy within RANSAC's own sampling noise
-  // (docs/results.md, "Verification").
+  // ninth of kRansac's time; match rates and PR-AUC the same within RANSAC's own sampling
+  // noise, recall at 100% precision lower on average (docs/results.md, "Verification").
   kUsac,
   // OpenCV's classic FM_RANSAC (cv::findFundamentalMat), used before 2026-12-03.
   kRansac,

@@ -8,6 +8,7 @@
 
 #include <cstdlib>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "common/training/trainer.h"
@@ -25,15 +26,40 @@ StatusOr<std::map<std::string, std::string>> ReadCsv(const test::ScratchDir& dir
   return ReadGroundTruth(path);
 }
 
-// Rows map query files to tour files; a header row, comments, blank lines and CRLF line
-// ends are allowed.
+// Rows map query files to tour files; a header row (after any comments), comments, blank
+// lines, spaces around the names and CRLF line ends are allowed.
 TEST(GroundTruthTest, ReadsRowsSkippingHeaderAndComments) {
   const test::ScratchDir dir("eval");
-  const auto truth =
-      ReadCsv(dir, "query_file,tour_file\r\n# a comment\r\n\r\nq1.jpg,t7.jpg\r\nq2.jpg,t3.jpg\n");
-  ASSERT_TRUE(truth.ok()) << truth.status().ToString();
   const std::map<std::string, std::string> expected = {{"q1.jpg", "t7.jpg"}, {"q2.jpg", "t3.jpg"}};
-  EXPECT_EQ(*truth, expected);
+  for (const std::string text :
+       {"query_file,tour_file\r\n# a comment\r\n\r\nq1.jpg,t7.jpg\r\nq2.jpg,t3.jpg\n",
+        "# made by hand\n\nquery_file,tour_file\nq1.jpg, t7.jpg\n  q2.jpg ,t3.jpg  \n",
+        "q1.jpg,t7.jpg\nq2.jpg,t3.jpg"}) {
+    const auto truth = ReadCsv(dir, text);
+    ASSERT_TRUE(truth.ok()) << truth.status().ToString();
+    EXPECT_EQ(*truth, expected) << text;
+  }
+}
+
+// A header-like row after the first is data, not a header: it names a query that is
+// checked like any other. A query listed twice, or a row with an empty name, is refused
+// with its line.
+TEST(GroundTruthTest, RefusesRepeatedQueriesAndEmptyNames) {
+  const test::ScratchDir dir("eval");
+  const auto late_header = ReadCsv(dir, "q1.jpg,t1.jpg\nquery_file,tour_file\n");
+  ASSERT_TRUE(late_header.ok());
+  EXPECT_EQ(late_header->count("query_file"), 1u);
+  for (const auto& [text, message] : std::vector<std::pair<std::string, std::string>>{
+           {"q1.jpg,t1.jpg\nq2.jpg,t2.jpg\nq1.jpg,t9.jpg\n",
+            ":3: query 'q1.jpg' is listed again (first on line 1)"},
+           {"q1.jpg,t1.jpg\nq2.jpg, \n", ":2: an empty file name"},
+           {",t1.jpg\n", ":1: an empty file name"}}) {
+    const auto truth = ReadCsv(dir, text);
+    ASSERT_FALSE(truth.ok()) << text;
+    EXPECT_EQ(truth.status().code(), StatusCode::kInvalidArgument);
+    EXPECT_NE(truth.status().message().find(message), std::string::npos)
+        << truth.status().message();
+  }
 }
 
 // A missing file is NotFound; a row without exactly one comma is InvalidArgument naming
@@ -51,6 +77,18 @@ TEST(GroundTruthTest, RejectsMissingFilesBadRowsAndEmptyFiles) {
   const auto header_only = ReadCsv(dir, "query_file,tour_file\n# nothing else\n");
   ASSERT_FALSE(header_only.ok());
   EXPECT_NE(header_only.status().message().find("has no row"), std::string::npos);
+}
+
+// The outcomes to fill must be one per query: anything else is refused before any work.
+TEST(RunQueriesSizeTest, OutcomesMustMatchTheQueries) {
+  const std::vector<FeatureSet> queries(3);
+  std::vector<QueryOutcome> outcomes(2);
+  const Status ours = RunOurs(queries, Map(), MatchOptions(), 1, &outcomes);
+  EXPECT_EQ(ours.code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(ours.message(), "3 queries but 2 outcomes to fill");
+  EXPECT_EQ(RunBaselines(queries, {}, 0.01, &outcomes).code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(RunOurs(queries, Map(), MatchOptions(), 1, nullptr).code(),
+            StatusCode::kInvalidArgument);
 }
 
 // Without ground truth a query's truth is the tour image of its own name; with it, the

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <fstream>
 #include <sstream>
+#include <utility>
 
 #include "common/matching/baseline.h"
 #include "common/matching/sequence_filter.h"
@@ -12,23 +13,43 @@
 
 namespace sceneloc {
 
+namespace {
+
+std::string Trimmed(const std::string& text) {
+  const size_t first = text.find_first_not_of(" \t");
+  if (first == std::string::npos) return "";
+  return text.substr(first, text.find_last_not_of(" \t") - first + 1);
+}
+
+}  // namespace
+
 StatusOr<std::map<std::string, std::string>> ReadGroundTruth(const std::string& csv_path) {
   std::ifstream in(csv_path);
   if (!in) return NotFound("ground-truth file '" + csv_path + "' cannot be opened");
   std::map<std::string, std::string> truth;
+  std::map<std::string, int> line_of;
   std::string line;
   int line_number = 0;
+  bool first_row = true;
   while (std::getline(in, line)) {
     ++line_number;
     if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty() || line[0] == '#') continue;
+    if (Trimmed(line).empty() || line[0] == '#') continue;
+    const std::string where = csv_path + ":" + std::to_string(line_number) + ": ";
     const size_t comma = line.find(',');
     if (comma == std::string::npos || line.find(',', comma + 1) != std::string::npos) {
-      return InvalidArgument(csv_path + ":" + std::to_string(line_number) +
-                             ": expected 'query_file,tour_file'");
+      return InvalidArgument(where + "expected 'query_file,tour_file'");
     }
-    const std::string query = line.substr(0, comma), tour = line.substr(comma + 1);
-    if (line_number == 1 && query == "query_file") continue;  // header row
+    const std::string query = Trimmed(line.substr(0, comma));
+    const std::string tour = Trimmed(line.substr(comma + 1));
+    // The header, if any, is the first row (comments and blank lines may come before it).
+    if (std::exchange(first_row, false) && query == "query_file" && tour == "tour_file") continue;
+    if (query.empty() || tour.empty()) return InvalidArgument(where + "an empty file name");
+    const auto [it, added] = line_of.emplace(query, line_number);
+    if (!added) {
+      return InvalidArgument(where + "query '" + query + "' is listed again (first on line " +
+                             std::to_string(it->second) + ")");
+    }
     truth[query] = tour;
   }
   if (truth.empty()) return InvalidArgument("ground-truth file '" + csv_path + "' has no row");
@@ -145,8 +166,22 @@ EvalSummary Summarise(const std::vector<QueryOutcome>& outcomes, bool with_basel
   return s;
 }
 
+namespace {
+
+// The callers size the outcomes (name and truth filled) before running: one per query.
+Status CheckOutcomes(const std::vector<FeatureSet>& queries,
+                     const std::vector<QueryOutcome>* outcomes) {
+  if (outcomes != nullptr && outcomes->size() == queries.size()) return Status::Ok();
+  return InvalidArgument(std::to_string(queries.size()) + " queries but " +
+                         std::to_string(outcomes == nullptr ? 0 : outcomes->size()) +
+                         " outcomes to fill");
+}
+
+}  // namespace
+
 Status RunOurs(const std::vector<FeatureSet>& queries, const Map& map, const MatchOptions& options,
                int threads, std::vector<QueryOutcome>* outcomes) {
+  SCENELOC_RETURN_IF_ERROR(CheckOutcomes(queries, outcomes));
   ThreadPool pool(threads);
   for (size_t q = 0; q < queries.size(); ++q) {
     Stopwatch watch;
@@ -167,6 +202,7 @@ Status RunOurs(const std::vector<FeatureSet>& queries, const Map& map, const Mat
 
 Status RunBaselines(const std::vector<FeatureSet>& queries, const std::vector<FeatureSet>& tour,
                     double ransac_threshold, std::vector<QueryOutcome>* outcomes) {
+  SCENELOC_RETURN_IF_ERROR(CheckOutcomes(queries, outcomes));
   BaselineOptions options;
   if (!tour.empty()) {
     options.ransac_threshold_px =

@@ -96,7 +96,8 @@ EvalSummary Summarise(const std::vector<QueryOutcome>& outcomes, bool with_basel
                       const Judging& judging = {});
 
 // Localises every query (already extracted) against the map with `threads` threads and
-// fills outcome.ours (and the stages, matches and candidates).
+// fills outcome.ours (and the stages, matches and candidates). `outcomes` holds one entry per
+// query (InvalidArgument otherwise, before any work), as for RunBaselines.
 Status RunOurs(const std::vector<FeatureSet>& queries, const Map& map, const MatchOptions& options,
                int threads, std::vector<QueryOutcome>* outcomes);
 
