@@ -59,12 +59,13 @@ void PutBytes(std::string* out, const void* data, size_t bytes) {
 }
 
 // Reads from a byte buffer; every read is bounds-checked and a failed one stays failed.
+// (The map file's PayloadReader is internal to map_io; this cache is the eval tools' own.)
 class Reader {
  public:
-  explicit Reader(const std::string& bytes) : bytes_(bytes) {}
+  Reader(const char* data, size_t size) : data_(data), size_(size) {}
   bool Bytes(void* out, size_t n) {
-    if (!ok_ || n > bytes_.size() - pos_) return ok_ = false;
-    std::memcpy(out, bytes_.data() + pos_, n);
+    if (!ok_ || n > size_ - pos_) return ok_ = false;
+    std::memcpy(out, data_ + pos_, n);
     pos_ += n;
     return true;
   }
@@ -72,10 +73,11 @@ class Reader {
   bool Get(T* v) {
     return Bytes(v, sizeof(T));
   }
-  bool AtEnd() const { return ok_ && pos_ == bytes_.size(); }
+  bool AtEnd() const { return ok_ && pos_ == size_; }
 
  private:
-  const std::string& bytes_;
+  const char* data_;
+  size_t size_;
   size_t pos_ = 0;
   bool ok_ = true;
 };
@@ -155,8 +157,7 @@ bool Read(const std::string& path, const std::string& key, size_t expected,
   const size_t body = bytes.size() - sizeof(crc);
   std::memcpy(&crc, bytes.data() + body, sizeof(crc));
   if (crc != Crc32(bytes.data(), body)) return false;
-  const std::string content = bytes.substr(0, body);
-  Reader in(content);
+  Reader in(bytes.data(), body);  // the CRC after the body is not part of it
   uint32_t version = 0;
   uint64_t key_size = 0;
   if (!in.Get(&version) || version != kCacheVersion || !in.Get(&key_size) ||
