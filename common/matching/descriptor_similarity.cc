@@ -1,7 +1,11 @@
 #include "common/matching/descriptor_similarity.h"
 
 #include <algorithm>
-#include <mutex>
+#include <cstdint>
+
+#if defined(__AVX2__) && defined(__FMA__)
+#include <immintrin.h>
+#endif
 
 #include "common/matching/similarity.h"
 
@@ -12,18 +16,44 @@ namespace {
 // a block of scores for 1000 features (4 MB) stays in cache-friendly range.
 constexpr size_t kLandmarkBlock = 512;
 
+// The similarity of the query's context histogram h to the landmark's.
+float HistogramSimilarity(const float* context, const float* mean, const Map& map, int landmark,
+                          int h) {
+  float d2 = 0;
+  for (int b = 0; b < kHistogramBins; ++b) {
+    const float diff = context[h * kHistogramBins + b] - mean[h * kHistogramBins + b];
+    d2 += diff * diff;
+  }
+  return SimilarityFromSquared(d2, map.context_dmax(landmark, h), map.context_var(landmark, h));
+}
+
 float ContextSimilarity(const float* context, const Map& map, int landmark) {
   const float* mean = map.context_mean.row(landmark).data();
   float sum = 0;
   for (int h = 0; h < kNumHistograms; ++h) {
-    float d2 = 0;
-    for (int b = 0; b < kHistogramBins; ++b) {
-      const float diff = context[h * kHistogramBins + b] - mean[h * kHistogramBins + b];
-      d2 += diff * diff;
-    }
-    sum += SimilarityFromSquared(d2, map.context_dmax(landmark, h), map.context_var(landmark, h));
+    sum += HistogramSimilarity(context, mean, map, landmark, h);
   }
   return sum / kNumHistograms;
+}
+
+// How far a sum of similarities computed in float may sit from the exact one; an early
+// exit needs this much room to be sure.
+constexpr float kSumSlack = 1e-3f;
+
+// S_D of a pair whose local similarity is `local` (> 0), or 0 when it is surely below
+// s_min: the context mean must reach s_min / local and each histogram adds at most 1, so
+// the sum is given up as soon as the histograms left cannot lift it there (most pairs that
+// pass the local test fail here, after a few of the 16). Otherwise exactly
+// local * ContextSimilarity.
+float PairSimilarity(float local, const float* context, const Map& map, int landmark, float s_min) {
+  const float needed = s_min / local * kNumHistograms - kSumSlack;
+  const float* mean = map.context_mean.row(landmark).data();
+  float sum = 0;
+  for (int h = 0; h < kNumHistograms; ++h) {
+    if (sum + static_cast<float>(kNumHistograms - h) < needed) return 0;
+    sum += HistogramSimilarity(context, mean, map, landmark, h);
+  }
+  return local * (sum / kNumHistograms);
 }
 
 // Keeps the `cap` best of one landmark's matches (appended from `first` on), in feature order.
@@ -59,6 +89,43 @@ struct QueryProjection {
 // unit descriptors run 0-4, limits about 0.1-0.5.
 constexpr float kBoundSlack = 1e-4f;
 
+// Appends to `survivors` the features whose lower bound on the squared distance to one
+// landmark (projected part |P^T a|^2 + p2 - 2 dots, plus the squared difference of the
+// residual norms) is not above `threshold`; `dots` is the landmark's row of P^T mu . P^T a.
+// About 96% of all pairs end here, so with AVX2 eight features are bounded and compared at
+// once and only the survivors' indices are visited. A NaN bound survives (as `!(b > t)`),
+// leaving the exact distance to decide, as the scalar path does.
+void BoundSurvivors(const float* dots, const QueryProjection& query, float p2, float residual,
+                    float threshold, std::vector<uint32_t>* survivors) {
+  const auto count = static_cast<uint32_t>(query.projected_sqnorm.size());
+  const float* projected = query.projected_sqnorm.data();
+  const float* residuals = query.residual_norm.data();
+  const float limit = threshold - p2;
+  uint32_t i = 0;
+#if defined(__AVX2__) && defined(__FMA__)
+  const __m256 v_limit = _mm256_set1_ps(limit);
+  const __m256 v_residual = _mm256_set1_ps(residual);
+  const __m256 v_two = _mm256_set1_ps(2.0f);
+  for (; i + 8 <= count; i += 8) {
+    const __m256 dr = _mm256_sub_ps(_mm256_loadu_ps(residuals + i), v_residual);
+    __m256 bound =
+        _mm256_fnmadd_ps(v_two, _mm256_loadu_ps(dots + i), _mm256_loadu_ps(projected + i));
+    bound = _mm256_fmadd_ps(dr, dr, bound);
+    auto mask =
+        static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(bound, v_limit, _CMP_NGT_UQ)));
+    while (mask != 0) {
+      survivors->push_back(i + static_cast<uint32_t>(__builtin_ctz(mask)));
+      mask &= mask - 1;
+    }
+  }
+#endif
+  for (; i < count; ++i) {
+    const float dr = residuals[i] - residual;
+    const float bound = projected[i] - 2.0f * dots[i] + dr * dr;
+    if (!(bound > limit)) survivors->push_back(i);
+  }
+}
+
 // Scores features against landmarks [begin, end) and appends the survivors to `out`.
 // First a lower bound on every pair's squared distance from a matrix product at a quarter
 // of the descriptor's width (Map::local_basis); only the pairs it cannot rule out (a few
@@ -72,30 +139,26 @@ void MatchBlock(const FeatureSet& features, const QueryProjection& query, const 
   const Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> dots =
       map.local_projected.middleRows(static_cast<Eigen::Index>(begin), n) *
       query.projected.transpose();
-  Eigen::ArrayXf bound(dots.cols());  // one landmark's bounds, computed 8 at a time
+  std::vector<uint32_t> survivors;
+  survivors.reserve(static_cast<size_t>(dots.cols()));
   for (Eigen::Index r = 0; r < n; ++r) {
     const int landmark = static_cast<int>(begin) + static_cast<int>(r);
     const float dmax = map.local_dmax[landmark];
     const float var = map.local_var[landmark];
     const float limit = SquaredDistanceLimit(dmax, var, s_min);
     const float mu2 = map.local_mean_sqnorm[landmark];
-    const float p2 = map.local_projected_sqnorm[landmark];
-    const float residual = map.local_residual_norm[landmark];
     const auto mean = map.local_mean.row(landmark);
     const size_t first = out->size();
-    bound = query.projected_sqnorm.array() + p2 - 2.0f * dots.row(r).transpose().array() +
-            (query.residual_norm.array() - residual).square();
-    const float threshold = limit + kBoundSlack;
-    for (Eigen::Index i = 0; i < dots.cols(); ++i) {
-      if (bound[i] > threshold) continue;
+    survivors.clear();
+    BoundSurvivors(dots.row(r).data(), query, map.local_projected_sqnorm[landmark],
+                   map.local_residual_norm[landmark], limit + kBoundSlack, &survivors);
+    for (const uint32_t i : survivors) {
       const float d2 =
           std::max(0.0f, query.sqnorm[i] + mu2 - 2.0f * mean.dot(features.local.row(i)));
       if (d2 > limit) continue;
       const float local = SimilarityFromSquared(d2, dmax, var);
-      const float s = local * ContextSimilarity(features.context.row(i).data(), map, landmark);
-      if (s >= s_min) {
-        out->push_back({static_cast<uint32_t>(i), static_cast<uint32_t>(landmark), s});
-      }
+      const float s = PairSimilarity(local, features.context.row(i).data(), map, landmark, s_min);
+      if (s >= s_min) out->push_back({i, static_cast<uint32_t>(landmark), s});
     }
     CapLandmarkMatches(first, cap, out);
   }
