@@ -1,6 +1,7 @@
 #include "common/matching/descriptor_similarity.h"
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 
 #if defined(__AVX2__) && defined(__FMA__)
@@ -89,20 +90,42 @@ struct QueryProjection {
 // unit descriptors run 0-4, limits about 0.1-0.5.
 constexpr float kBoundSlack = 1e-4f;
 
-// Appends to `survivors` the features whose lower bound on the squared distance to one
+#if defined(__AVX2__) && defined(__FMA__)
+// For each set of eight lanes (a bit mask), the set lanes' numbers packed to the front.
+using PackTable = std::array<std::array<uint32_t, 8>, 256>;
+const PackTable& LeftPackTable() {
+  static const PackTable table = [] {
+    PackTable t{};
+    for (unsigned mask = 0; mask < 256; ++mask) {
+      unsigned n = 0;
+      for (uint32_t lane = 0; lane < 8; ++lane) {
+        if ((mask >> lane) & 1u) t[mask][n++] = lane;
+      }
+    }
+    return t;
+  }();
+  return table;
+}
+#endif
+
+// Writes to `out` the features whose lower bound on the squared distance to one
 // landmark (projected part |P^T a|^2 + p2 - 2 dots, plus the squared difference of the
 // residual norms) is not above `threshold`; `dots` is the landmark's row of P^T mu . P^T a.
 // About 96% of all pairs end here, so with AVX2 eight features are bounded and compared at
-// once and only the survivors' indices are visited. A NaN bound survives (as `!(b > t)`),
-// leaving the exact distance to decide, as the scalar path does.
-void BoundSurvivors(const float* dots, const QueryProjection& query, float p2, float residual,
-                    float threshold, std::vector<uint32_t>* survivors) {
+// once and their survivors' indices written without a branch (a left-packing table: which
+// of eight survive is too random for the branch predictor). A NaN bound survives (as
+// `!(b > t)`), leaving the exact distance to decide, as the scalar path does.
+// Returns how many were written to `out`, which must have room for every feature plus 8.
+uint32_t BoundSurvivors(const float* dots, const QueryProjection& query, float p2, float residual,
+                        float threshold, uint32_t* out) {
   const auto count = static_cast<uint32_t>(query.projected_sqnorm.size());
   const float* projected = query.projected_sqnorm.data();
   const float* residuals = query.residual_norm.data();
   const float limit = threshold - p2;
+  uint32_t kept = 0;
   uint32_t i = 0;
 #if defined(__AVX2__) && defined(__FMA__)
+  const PackTable& pack = LeftPackTable();
   const __m256 v_limit = _mm256_set1_ps(limit);
   const __m256 v_residual = _mm256_set1_ps(residual);
   const __m256 v_two = _mm256_set1_ps(2.0f);
@@ -111,19 +134,21 @@ void BoundSurvivors(const float* dots, const QueryProjection& query, float p2, f
     __m256 bound =
         _mm256_fnmadd_ps(v_two, _mm256_loadu_ps(dots + i), _mm256_loadu_ps(projected + i));
     bound = _mm256_fmadd_ps(dr, dr, bound);
-    auto mask =
+    const auto mask =
         static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(bound, v_limit, _CMP_NGT_UQ)));
-    while (mask != 0) {
-      survivors->push_back(i + static_cast<uint32_t>(__builtin_ctz(mask)));
-      mask &= mask - 1;
-    }
+    const __m256i lanes = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(pack[mask].data()));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(out + kept),
+                        _mm256_add_epi32(lanes, _mm256_set1_epi32(static_cast<int>(i))));
+    kept += static_cast<uint32_t>(__builtin_popcount(mask));
   }
 #endif
   for (; i < count; ++i) {
     const float dr = residuals[i] - residual;
     const float bound = projected[i] - 2.0f * dots[i] + dr * dr;
-    if (!(bound > limit)) survivors->push_back(i);
+    out[kept] = i;
+    kept += !(bound > limit) ? 1 : 0;
   }
+  return kept;
 }
 
 // Scores features against landmarks [begin, end) and appends the survivors to `out`.
@@ -139,8 +164,7 @@ void MatchBlock(const FeatureSet& features, const QueryProjection& query, const 
   const Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> dots =
       map.local_projected.middleRows(static_cast<Eigen::Index>(begin), n) *
       query.projected.transpose();
-  std::vector<uint32_t> survivors;
-  survivors.reserve(static_cast<size_t>(dots.cols()));
+  std::vector<uint32_t> survivors(static_cast<size_t>(dots.cols()) + 8);
   for (Eigen::Index r = 0; r < n; ++r) {
     const int landmark = static_cast<int>(begin) + static_cast<int>(r);
     const float dmax = map.local_dmax[landmark];
@@ -149,10 +173,11 @@ void MatchBlock(const FeatureSet& features, const QueryProjection& query, const 
     const float mu2 = map.local_mean_sqnorm[landmark];
     const auto mean = map.local_mean.row(landmark);
     const size_t first = out->size();
-    survivors.clear();
-    BoundSurvivors(dots.row(r).data(), query, map.local_projected_sqnorm[landmark],
-                   map.local_residual_norm[landmark], limit + kBoundSlack, &survivors);
-    for (const uint32_t i : survivors) {
+    const uint32_t kept =
+        BoundSurvivors(dots.row(r).data(), query, map.local_projected_sqnorm[landmark],
+                       map.local_residual_norm[landmark], limit + kBoundSlack, survivors.data());
+    for (uint32_t k = 0; k < kept; ++k) {
+      const uint32_t i = survivors[k];
       const float d2 =
           std::max(0.0f, query.sqnorm[i] + mu2 - 2.0f * mean.dot(features.local.row(i)));
       if (d2 > limit) continue;
