@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -186,11 +187,22 @@ TEST_F(SuiteRunTest, GeneratedVariantsChangeTheQueries) {
   EXPECT_EQ(load(QueryChange::kJpeg).size(), original.size());
   EXPECT_LT(fs::file_size(VariantPath(set_, context_, 1)), fs::file_size(query));
 
-  // Written once: a variant already there is used as it is.
+  // Written once: a variant already there, made from the source as it is, is used as it is.
+  const std::string variant = VariantPath(set_, context_, 1).string();
   const std::string kept = test::ReadFileBytes(query);
-  test::WriteFileBytes(VariantPath(set_, context_, 1).string(), kept);
+  test::WriteFileBytes(variant, kept);
   load(QueryChange::kJpeg);
-  EXPECT_EQ(test::ReadFileBytes(VariantPath(set_, context_, 1).string()), kept);
+  EXPECT_EQ(test::ReadFileBytes(variant), kept);
+  // A source changed since (here only touched: a new modification time) is changed again.
+  fs::last_write_time(query, fs::last_write_time(query) + std::chrono::seconds(5));
+  load(QueryChange::kJpeg);
+  EXPECT_NE(test::ReadFileBytes(variant), kept);
+  // So is a variant without its stamp (a cache written before stamps, or half written).
+  test::WriteFileBytes(variant, kept);
+  fs::remove(variant + ".stamp");
+  load(QueryChange::kJpeg);
+  EXPECT_NE(test::ReadFileBytes(variant), kept);
+  EXPECT_TRUE(fs::exists(variant + ".stamp"));
 
   context_.cache_dir.clear();
   const auto without_cache = LoadSet(set_, extractor_, context_);

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
@@ -57,7 +59,41 @@ StatusOr<std::vector<std::string>> FirstImages(const std::string& dir, int limit
   return paths;
 }
 
-// Writes the changed queries once into cache_dir/variants/<set> and returns their paths.
+// What a generated variant was made from: its source file (path, size, modification time)
+// and how it was changed. Bump kVariantVersion when Change() changes what it writes.
+constexpr int kVariantVersion = 1;
+std::string VariantStamp(const std::string& source, QueryChange change) {
+  std::error_code ec;
+  const auto size = fs::file_size(source, ec);
+  const auto mtime = fs::last_write_time(source, ec).time_since_epoch().count();
+  return "sceneloc variant " + std::to_string(kVariantVersion) + "\n" + source + "\n" +
+         std::to_string(size) + "\n" + std::to_string(mtime) + "\n" + QueryChangeName(change) +
+         "\n";
+}
+
+bool ReadsAs(const fs::path& path, const std::string& expected) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return false;
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  return text == expected;
+}
+
+Status WriteAtomically(const fs::path& target, const std::string& bytes) {
+  const fs::path tmp = target.string() + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out << bytes;
+    if (!out.flush()) return IoError("cannot write '" + tmp.string() + "'");
+  }
+  std::error_code ec;
+  fs::rename(tmp, target, ec);
+  if (ec) return IoError("cannot write '" + target.string() + "': " + ec.message());
+  return Status::Ok();
+}
+
+// Writes the changed queries into cache_dir/variants/<set> and returns their paths. A
+// variant is made again when its stamp (<file>.stamp) does not match its source any more:
+// a source replaced or touched, a variant of an older generator, or one without a stamp.
 StatusOr<std::vector<std::string>> ChangedQueries(const SuiteSet& set,
                                                   const std::vector<std::string>& paths,
                                                   const std::string& cache_dir) {
@@ -70,8 +106,10 @@ StatusOr<std::vector<std::string>> ChangedQueries(const SuiteSet& set,
   std::vector<std::string> out;
   for (size_t i = 0; i < paths.size(); ++i) {
     const fs::path target = dir / FileName(paths[i]);
+    const fs::path stamp_path = target.string() + ".stamp";
     out.push_back(target.string());
-    if (fs::exists(target)) continue;
+    const std::string stamp = VariantStamp(paths[i], set.change);
+    if (fs::is_regular_file(target) && ReadsAs(stamp_path, stamp)) continue;
     SCENELOC_ASSIGN_OR_RETURN(const cv::Mat image, ReadImageFile(paths[i]));
     const auto [changed, quality] = Change(image, set.change, static_cast<uint32_t>(i));
     const fs::path tmp = target.string() + ".tmp.jpg";
@@ -80,6 +118,7 @@ StatusOr<std::vector<std::string>> ChangedQueries(const SuiteSet& set,
     }
     fs::rename(tmp, target, ec);
     if (ec) return IoError("cannot write '" + target.string() + "': " + ec.message());
+    SCENELOC_RETURN_IF_ERROR(WriteAtomically(stamp_path, stamp));
   }
   return out;
 }

@@ -70,7 +70,8 @@ struct SetResult {
 };
 
 struct SuiteContext {
-  std::string cache_dir;  // extracted features and generated variants ("" = no cache)
+  std::string cache_dir;  // extracted features and generated variants ("" = no cache); a variant
+                          // is made again when its source changes (a stamp beside it)
   int threads = 2;
 };
 
