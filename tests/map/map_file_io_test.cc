@@ -1,5 +1,5 @@
 // The file system side of map files (common/map/map_file_io.h): atomic writes that leave
-// nothing behind, and a streaming source that checksums what it delivers; (MapIoTest) the
+// nothing behind, and a streaming source that checksums what it delivers; (MapFileSaveTest) the
 // same atomic writes as SaveMap makes them.
 #include "common/map/map_file_io.h"
 
@@ -147,16 +147,16 @@ using test::ExpectMapsEqual;
 using test::MakeRandomMap;
 
 // SaveMap's writes, which WriteFileAtomically makes.
-using MapIoTest = test::MapFileTest;
+using MapFileSaveTest = test::MapFileTest;
 
 // A successful save leaves only the map file: no temporary file behind.
-TEST_F(MapIoTest, SaveLeavesNoTemporaryFile) {
+TEST_F(MapFileSaveTest, SaveLeavesNoTemporaryFile) {
   ASSERT_TRUE(SaveMap(MakeRandomMap(5, 30, 1), path_).ok());
   EXPECT_EQ(DirectoryEntries(), std::vector<std::string>{"tour.map"});
 }
 
 // Saving over an existing map replaces it whole.
-TEST_F(MapIoTest, SaveReplacesExistingMap) {
+TEST_F(MapFileSaveTest, SaveReplacesExistingMap) {
   ASSERT_TRUE(SaveMap(MakeRandomMap(5, 30, 1), path_).ok());
   const Map second = MakeRandomMap(6, 10, 2);
   ASSERT_TRUE(SaveMap(second, path_).ok());
@@ -168,7 +168,7 @@ TEST_F(MapIoTest, SaveReplacesExistingMap) {
 
 // Saving into a folder that does not exist is an IoError naming the path, and creates
 // nothing.
-TEST_F(MapIoTest, SaveToMissingDirectoryFails) {
+TEST_F(MapFileSaveTest, SaveToMissingDirectoryFails) {
   const std::string path = (dir_ / "no_such_dir" / "tour.map").string();
   const Status status = SaveMap(MakeRandomMap(5, 30, 1), path);
   EXPECT_EQ(status.code(), StatusCode::kIoError) << status.ToString();
@@ -178,7 +178,7 @@ TEST_F(MapIoTest, SaveToMissingDirectoryFails) {
 }
 
 // When the final rename fails (the target is a folder) the temporary file is removed.
-TEST_F(MapIoTest, FailedRenameRemovesTemporaryFile) {
+TEST_F(MapFileSaveTest, FailedRenameRemovesTemporaryFile) {
   ASSERT_TRUE(fs::create_directory(path_));
   ASSERT_TRUE(fs::create_directory(fs::path(path_) / "occupied"));
   const Status status = SaveMap(MakeRandomMap(5, 30, 1), path_);

@@ -1,6 +1,6 @@
 // The map file header (common/map/map_header.h): written at the documented offsets, read
 // back, and one distinct error for each way a header can be wrong, on bytes made here and
-// (MapIoTest) on whole map files loaded with LoadMap.
+// (MapHeaderLoadTest) on whole map files loaded with LoadMap.
 #include "common/map/map_header.h"
 
 #include <gtest/gtest.h>
@@ -131,14 +131,16 @@ using test::PutU32;
 using test::Rechecksum;
 
 // The header's errors as LoadMap reports them for a file on disk.
-using MapIoTest = test::MapFileTest;
+using MapHeaderLoadTest = test::MapFileTest;
 
 // An empty file is DataLoss "is empty".
-TEST_F(MapIoTest, EmptyFileIsDataLoss) { ExpectLoadFails("", StatusCode::kDataLoss, "is empty"); }
+TEST_F(MapHeaderLoadTest, EmptyFileIsDataLoss) {
+  ExpectLoadFails("", StatusCode::kDataLoss, "is empty");
+}
 
 // A file cut anywhere, in the header or in the payload, is DataLoss "truncated" with
 // the expected and the actual size.
-TEST_F(MapIoTest, TruncatedFileIsDataLoss) {
+TEST_F(MapHeaderLoadTest, TruncatedFileIsDataLoss) {
   const std::string bytes = SerializeMap(MakeRandomMap(10, 80, 3));
   const size_t size = bytes.size();
   for (size_t cut : {size_t{1}, size_t{4}, size_t{8}, size_t{11}, size_t{12}, size_t{20},
@@ -152,7 +154,7 @@ TEST_F(MapIoTest, TruncatedFileIsDataLoss) {
 }
 
 // A file that does not start with the magic is InvalidArgument "not a sceneloc map".
-TEST_F(MapIoTest, WrongMagicIsInvalidArgument) {
+TEST_F(MapHeaderLoadTest, WrongMagicIsInvalidArgument) {
   std::string bytes = SerializeMap(MakeRandomMap(4, 10, 3));
   bytes[3] = 'X';
   ExpectLoadFails(bytes, StatusCode::kInvalidArgument, "is not a sceneloc map (bad magic)");
@@ -162,7 +164,7 @@ TEST_F(MapIoTest, WrongMagicIsInvalidArgument) {
 
 // A file of a newer format version (with a valid header CRC) is Unimplemented and
 // says which versions this build reads.
-TEST_F(MapIoTest, NewerFormatVersionIsUnimplemented) {
+TEST_F(MapHeaderLoadTest, NewerFormatVersionIsUnimplemented) {
   for (uint32_t version : {kMapFormatVersion + 1, 77u}) {
     std::string bytes = SerializeMap(MakeRandomMap(4, 10, 3));
     PutU32(&bytes, 8, version);
@@ -174,7 +176,7 @@ TEST_F(MapIoTest, NewerFormatVersionIsUnimplemented) {
 }
 
 // Header flags this build does not know are Unimplemented.
-TEST_F(MapIoTest, UnknownHeaderFlagsAreUnimplemented) {
+TEST_F(MapHeaderLoadTest, UnknownHeaderFlagsAreUnimplemented) {
   std::string bytes = SerializeMap(MakeRandomMap(4, 10, 3));
   PutU32(&bytes, 12, 1);
   Rechecksum(&bytes);
@@ -183,7 +185,7 @@ TEST_F(MapIoTest, UnknownHeaderFlagsAreUnimplemented) {
 
 // A damaged header (its CRC, or a field it covers) is DataLoss "header checksum
 // mismatch".
-TEST_F(MapIoTest, DamagedHeaderIsHeaderChecksumMismatch) {
+TEST_F(MapHeaderLoadTest, DamagedHeaderIsHeaderChecksumMismatch) {
   const std::string good = SerializeMap(MakeRandomMap(4, 10, 3));
   for (size_t at : {size_t{28}, size_t{31}, size_t{17}, size_t{25}}) {
     SCOPED_TRACE("byte " + std::to_string(at));

@@ -1,6 +1,6 @@
 // The field codec of map files (common/map/payload_archive.h): the documented byte layout
 // of each field kind, round trips, and a reader that fails safely on hostile counts, here
-// and (MapIoTest) in a whole map file loaded with LoadMap.
+// and (PayloadLoadTest) in a whole map file loaded with LoadMap.
 #include "common/map/payload_archive.h"
 
 #include <gtest/gtest.h>
@@ -169,11 +169,11 @@ using test::PutU64;
 using test::Rechecksum;
 
 // A hostile count in a whole map file, as LoadMap reports it.
-using MapIoTest = test::MapFileTest;
+using PayloadLoadTest = test::MapFileTest;
 
 // A count far larger than the file (checksummed, so only a bad writer or an attacker
 // makes it) is DataLoss, without trying to allocate for it.
-TEST_F(MapIoTest, HugeCountIsDataLossWithoutAllocating) {
+TEST_F(PayloadLoadTest, HugeCountIsDataLossWithoutAllocating) {
   std::string bytes = SerializeMap(MakeRandomMap(4, 10, 3));
   const size_t name_at = bytes.find("frame_00000.jpg");
   ASSERT_NE(name_at, std::string::npos);
