@@ -78,16 +78,12 @@ bool ReadsAs(const fs::path& path, const std::string& expected) {
   return text == expected;
 }
 
-Status WriteAtomically(const fs::path& target, const std::string& bytes) {
-  const fs::path tmp = target.string() + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out << bytes;
-    if (!out.flush()) return IoError("cannot write '" + tmp.string() + "'");
-  }
-  std::error_code ec;
-  fs::rename(tmp, target, ec);
-  if (ec) return IoError("cannot write '" + target.string() + "': " + ec.message());
+// A stamp is written after its variant: a torn or missing one only reads as a mismatch, so
+// the variant is made again.
+Status WriteStamp(const fs::path& path, const std::string& stamp) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out << stamp;
+  if (!out.flush()) return IoError("cannot write '" + path.string() + "'");
   return Status::Ok();
 }
 
@@ -118,7 +114,7 @@ StatusOr<std::vector<std::string>> ChangedQueries(const SuiteSet& set,
     }
     fs::rename(tmp, target, ec);
     if (ec) return IoError("cannot write '" + target.string() + "': " + ec.message());
-    SCENELOC_RETURN_IF_ERROR(WriteAtomically(stamp_path, stamp));
+    SCENELOC_RETURN_IF_ERROR(WriteStamp(stamp_path, stamp));
   }
   return out;
 }
