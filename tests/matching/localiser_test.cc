@@ -191,7 +191,9 @@ TEST(LocaliserTest, MatchCapKeepsTheBestInOrder) {
   for (const DescriptorMatch& m : all) best[m.landmark] = std::max(best[m.landmark], m.similarity);
   for (size_t i = 0; i < capped.size(); ++i) {
     EXPECT_FLOAT_EQ(capped[i].similarity, best[capped[i].landmark]);
-    if (i > 0) EXPECT_LT(capped[i - 1].landmark, capped[i].landmark);
+    if (i > 0) {
+      EXPECT_LT(capped[i - 1].landmark, capped[i].landmark);
+    }
   }
   size_t matched_landmarks = 0;
   for (float b : best) matched_landmarks += b > 0;

@@ -38,7 +38,9 @@ Status TrainFramesMap() {
 class FramesTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    if (!fs::exists(kMapPath)) ASSERT_TRUE(TrainFramesMap().ok());
+    if (!fs::exists(kMapPath)) {
+      ASSERT_TRUE(TrainFramesMap().ok());
+    }
     auto map = LoadMap(kMapPath);
     ASSERT_TRUE(map.ok()) << map.status().ToString();
     map_ = new Map(std::move(map).value());
