@@ -34,7 +34,7 @@ SettingTable SessionSettings(SessionOptions* o) {
       Setting("sessions", "max_state_bytes", &o->max_state_bytes)
           .Range(1, 1e15)
           .Unit("bytes")
-          .Help("filter states together at most (a float per tour location each); past it "
+          .Help("filter states together at most (two floats per tour location each); past it "
                 "the least recently used are dropped")
           .Flag("max-session-bytes"),
   };

@@ -8,7 +8,10 @@
 namespace sceneloc {
 namespace {
 
-constexpr char kMagic[4] = {'S', 'L', 'S', '1'};
+constexpr char kMagic[4] = {'S', 'L', 'S', '2'};
+// The format before the direction of travel was state (N + 1 values): well-formed ones
+// start the session again, as a token of another map does.
+constexpr char kOldMagic[4] = {'S', 'L', 'S', '1'};
 constexpr size_t kHeaderBytes = 4 + 4 + 4 + 4 + 8;
 
 uint64_t SessionHash(const TokenOwner& owner) {
@@ -58,18 +61,22 @@ StatusOr<TokenFit> ParseSessionToken(const std::string& bytes, const TokenOwner&
     return InvalidArgument("session_state is not a state this server made (" + why +
                            "): send the `state` of the session's last reply, or none");
   };
-  if (bytes.size() < kHeaderBytes + 4 || std::memcmp(bytes.data(), kMagic, 4) != 0) {
+  const bool old_format = bytes.size() >= 4 && std::memcmp(bytes.data(), kOldMagic, 4) == 0;
+  if (bytes.size() < kHeaderBytes + 4 ||
+      (std::memcmp(bytes.data(), kMagic, 4) != 0 && !old_format)) {
     return corrupt("no session state header");
   }
   const size_t body = bytes.size() - 4;
   size_t at = body;
   if (Get<uint32_t>(bytes, &at) != Crc32(bytes.data(), body)) return corrupt("checksum mismatch");
+  if (old_format) return TokenFit::kOtherMap;
   at = sizeof(kMagic);
   const uint32_t checksum = Get<uint32_t>(bytes, &at);
   const uint32_t locations = Get<uint32_t>(bytes, &at);
   const uint32_t frames = Get<uint32_t>(bytes, &at);
   const uint64_t session = Get<uint64_t>(bytes, &at);
-  if ((body - kHeaderBytes) % 4 != 0 || (body - kHeaderBytes) / 4 != size_t{locations} + 1) {
+  const size_t values = SequenceFilter::StateSize(static_cast<int>(locations));
+  if ((body - kHeaderBytes) % 4 != 0 || (body - kHeaderBytes) / 4 != values) {
     return corrupt("size does not match its location count");
   }
   if (session != SessionHash(owner)) {
@@ -80,7 +87,7 @@ StatusOr<TokenFit> ParseSessionToken(const std::string& bytes, const TokenOwner&
   }
   SequenceState parsed;
   parsed.frames = frames;
-  parsed.belief.resize(size_t{locations} + 1);
+  parsed.belief.resize(values);
   double total = 0;
   for (float& b : parsed.belief) {
     b = Get<float>(bytes, &at);

@@ -4,10 +4,12 @@
 // eviction, expiry). The client sends back the state of its last reply; sceneloc::Client
 // does it by itself.
 //
-// Layout (little-endian): "SLS1", uint32 map checksum (the map file's CRC-32: the same in
+// Layout (little-endian): "SLS2", uint32 map checksum (the map file's CRC-32: the same in
 // every process serving that file), uint32 locations N, uint32 frames, uint64 session hash
-// (FNV-1a of the client's key name and the session name), N + 1 float32 belief, uint32
-// CRC-32 of everything before it. 28 + 4 (N + 1) bytes: 832 at 200 locations.
+// (FNV-1a of the client's key name and the session name), 2N + 1 float32 belief
+// (SequenceState), uint32 CRC-32 of everything before it. 28 + 4 (2N + 1) bytes: 1632 at
+// 200 locations. A well-formed token of the earlier format ("SLS1", N + 1 values, before
+// the direction of travel was state) starts the session again, as another map's does.
 //
 // The bytes come from the client: untrusted. ParseSessionToken checks size, checksum,
 // finite non-negative belief with a positive sum, and which session it belongs to.

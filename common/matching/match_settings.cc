@@ -73,17 +73,17 @@ SettingTable SequenceSettings(SequenceOptions* o) {
       Setting("sequence", "max_forward", &o->max_forward)
           .Range(0, 1000)
           .Off(-1)
-          .Help("motion band ahead, locations per frame (-1 = from the map)")
+          .Help("motion band up the route, locations per frame (-1 = from the map)")
           .Flag("sequence-max-forward"),
       Setting("sequence", "max_backward", &o->max_backward)
           .Range(0, 1000)
           .Off(-1)
-          .Help("and behind (-1 = from the map)")
+          .Help("and down it, for a robot travelling that way (-1 = from the map)")
           .Flag("sequence-max-backward"),
-      Setting("sequence", "backward_weight", &o->backward_weight)
+      Setting("sequence", "reverse", &o->reverse)
           .Range(0, 1)
-          .Help("each backward step against each forward one")
-          .Flag("sequence-backward-weight"),
+          .Help("per frame, P(turning round: travelling the other way along the route)")
+          .Flag("sequence-reverse"),
       Setting("sequence", "jump", &o->jump)
           .Range(0, 1)
           .Help("kidnap floor: share of the belief spread over every location per frame")

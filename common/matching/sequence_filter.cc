@@ -52,32 +52,44 @@ SequenceFilter::SequenceFilter(const Map& map, const SequenceOptions& options)
       options_(options) {
   const int band = options.max_forward < 0 || options.max_backward < 0 ? MotionBand(map) : 0;
   forward_ = options.max_forward >= 0 ? options.max_forward : band;
-  backward_ = options.max_backward >= 0 ? options.max_backward : std::max(1, band / 2);
-  kernel_.assign(static_cast<size_t>(backward_ + forward_ + 1), 1.0f);
-  for (int d = 0; d < backward_; ++d) kernel_[d] = static_cast<float>(options.backward_weight);
-  Normalise(&kernel_);
+  backward_ = options.max_backward >= 0 ? options.max_backward : band;
 }
 
 void SequenceFilter::Predict(std::vector<float>* belief) const {
   const int n = num_locations_;
   std::vector<float>& b = *belief;
-  const double in_mass = std::accumulate(b.begin(), b.begin() + n, 0.0);
-  const double off = b[n];
-  // The motion band; a step past either end of the route stays at the end.
-  std::vector<float> moved(static_cast<size_t>(n), 0.0f);
+  const double in_mass = std::accumulate(b.begin(), b.begin() + 2 * n, 0.0);
+  const double off = b[2 * n];
+  const double turn = options_.reverse;
+  // Each direction of travel after a possible turn, then its step: 0..forward_ locations
+  // up the route, or 0..backward_ down it, each equally likely; a step past either end of
+  // the route stays at the end.
+  std::vector<float> up(static_cast<size_t>(n), 0.0f), down(static_cast<size_t>(n), 0.0f);
+  const double up_step = 1.0 / (forward_ + 1), down_step = 1.0 / (backward_ + 1);
   for (int i = 0; i < n; ++i) {
-    if (b[i] == 0) continue;
-    for (int d = -backward_; d <= forward_; ++d) {
-      moved[std::clamp(i + d, 0, n - 1)] += b[i] * kernel_[d + backward_];
+    const double going_up = (1 - turn) * b[i] + turn * b[n + i];
+    const double going_down = (1 - turn) * b[n + i] + turn * b[i];
+    if (going_up != 0) {
+      const auto w = static_cast<float>(going_up * up_step);
+      for (int d = 0; d <= forward_; ++d) up[std::min(i + d, n - 1)] += w;
+    }
+    if (going_down != 0) {
+      const auto w = static_cast<float>(going_down * down_step);
+      for (int d = 0; d <= backward_; ++d) down[std::max(i - d, 0)] += w;
     }
   }
-  const double jump_each = options_.jump * in_mass / n;
-  const double enter_each = options_.enter * off / n;
-  for (int j = 0; j < n; ++j) {
-    b[j] = static_cast<float>((1 - options_.leave) * ((1 - options_.jump) * moved[j] + jump_each) +
+  // The kidnap floor and the way back onto the route: any location, either direction.
+  const double jump_each = options_.jump * in_mass / (2 * n);
+  const double enter_each = options_.enter * off / (2 * n);
+  const auto arrive = [&](float moved) {
+    return static_cast<float>((1 - options_.leave) * ((1 - options_.jump) * moved + jump_each) +
                               enter_each);
+  };
+  for (int j = 0; j < n; ++j) {
+    b[j] = arrive(up[j]);
+    b[n + j] = arrive(down[j]);
   }
-  b[n] = static_cast<float>(options_.leave * in_mass + (1 - options_.enter) * off);
+  b[2 * n] = static_cast<float>(options_.leave * in_mass + (1 - options_.enter) * off);
 }
 
 void SequenceFilter::Observe(const FrameEvidence& evidence, std::vector<float>* belief) const {
@@ -91,6 +103,7 @@ void SequenceFilter::Observe(const FrameEvidence& evidence, std::vector<float>* 
   const double gamma = options_.evidence_weight;
   // log P(frame | l) up to a constant shared by every state: the single-frame posterior
   // over a uniform prior (even odds of in-map, 1/N per location) is a likelihood ratio.
+  // The frame says nothing about the direction of travel: both halves get the same.
   std::vector<double> log_lik(static_cast<size_t>(n) + 1, std::log(p_in));
   if (has_scores) {
     const float top = *std::max_element(s.begin(), s.end());
@@ -101,32 +114,37 @@ void SequenceFilter::Observe(const FrameEvidence& evidence, std::vector<float>* 
   }
   log_lik[n] = std::log(1 - p_in);
   const double top = *std::max_element(log_lik.begin(), log_lik.end());
-  for (int l = 0; l <= n; ++l) {
-    (*belief)[l] *= static_cast<float>(std::exp(gamma * (log_lik[l] - top)));
+  std::vector<float>& b = *belief;
+  for (int l = 0; l < n; ++l) {
+    const auto w = static_cast<float>(std::exp(gamma * (log_lik[l] - top)));
+    b[l] *= w;
+    b[n + l] *= w;
   }
+  b[2 * n] *= static_cast<float>(std::exp(gamma * (log_lik[n] - top)));
   Normalise(belief);
 }
 
 SequenceAnswer SequenceFilter::Answer(const std::vector<float>& belief, uint32_t frames) const {
   const int n = num_locations_;
+  std::vector<double> at(static_cast<size_t>(n));  // either direction of travel
+  for (int l = 0; l < n; ++l) at[l] = static_cast<double>(belief[l]) + belief[n + l];
   SequenceAnswer a;
-  a.location =
-      static_cast<int>(std::max_element(belief.begin(), belief.begin() + n) - belief.begin());
+  a.location = static_cast<int>(std::max_element(at.begin(), at.end()) - at.begin());
   const int low = std::max(0, a.location - tolerance_);
   const int high = std::min(n - 1, a.location + tolerance_);
-  a.probability = std::accumulate(belief.begin() + low, belief.begin() + high + 1, 0.0);
-  a.off_map = belief[n];
+  a.probability = std::accumulate(at.begin() + low, at.begin() + high + 1, 0.0);
+  a.off_map = belief[2 * n];
   a.frames = frames;
   a.decision = a.probability >= options_.min_confidence ? Decision::kLocalised : Decision::kUnknown;
   return a;
 }
 
 SequenceAnswer SequenceFilter::Update(const FrameEvidence& evidence, SequenceState* state) const {
-  const size_t size = static_cast<size_t>(num_locations_) + 1;
+  const size_t size = StateSize(num_locations_);
   if (state->belief.size() != size) {
     const double off = StationaryOffMap(options_);
-    state->belief.assign(size, static_cast<float>((1 - off) / num_locations_));
-    state->belief[num_locations_] = static_cast<float>(off);
+    state->belief.assign(size, static_cast<float>((1 - off) / (2 * num_locations_)));
+    state->belief.back() = static_cast<float>(off);
     state->frames = 0;
   } else {
     Predict(&state->belief);

@@ -3,19 +3,25 @@
 // Each frame is localised on its own (localiser.h); the filter combines that single-frame
 // evidence with where the robot was a moment ago.
 //
-// The state is a belief over the map's N tour locations plus one "off the map" state.
+// The state is a belief over (tour location, direction of travel) for the map's N tour
+// locations and the two directions along the route, plus one "off the map" state.
 // One step, causal (an answer uses only the frames so far):
-//   predict:  belief'(j) = sum_i belief(i) K(j - i)      the motion model: K is 1 for
-//             0..max_forward locations ahead, backward_weight for 1..max_backward behind,
-//             normalised; a kidnap floor spreads `jump` of the mass over every location, so
-//             a robot carried elsewhere is found again; off-map enters and leaves at the
-//             rates below.
-//   update:   belief'(l) *= P(frame | l)^evidence_weight, normalised. P(frame | l) is the
-//             calibrated confidence's reading of the evidence (confidence.h): the fused
+//   predict:  the robot turns round with probability `reverse`, then steps 0..max_forward
+//             locations up the route if travelling up it, 0..max_backward down it if
+//             travelling down, each step equally likely; a kidnap floor spreads `jump` of
+//             the mass over every location and direction, so a robot carried elsewhere is
+//             found again; off-map enters and leaves at the rates below.
+//   update:   belief'(l, d) *= P(frame | l)^evidence_weight, normalised. P(frame | l) is
+//             the calibrated confidence's reading of the evidence (confidence.h): the fused
 //             scores as a posterior exp(s_l / T) over locations times P(in the map), over
 //             a uniform prior, i.e. a likelihood ratio. evidence_weight < 1 tempers it:
 //             consecutive frames are not independent (the same look-alike fools both).
-// Cost: O(N (max_forward + max_backward)) per frame, memory N + 1 floats per session.
+//   answer:   the location with the most belief over both directions.
+// The direction is state, not a backward step at every frame: a robot that backs up keeps
+// backing up, and one that walks on does not drift back towards where it was (a band with
+// backward steps at every frame averaged less than one location per frame forward and
+// answered behind the truth; measured in docs/results.md "Sessions").
+// Cost: O(N (max_forward + max_backward)) per frame, memory 2N + 1 floats per session.
 //
 // Thread-compatible: a SequenceState belongs to one session; the functions are pure.
 #pragma once
@@ -44,8 +50,10 @@ FrameEvidence EvidenceOf(const LocaliseResult& result, const Map& map);
 
 // A session's belief. Empty (no frames yet) until the first Update.
 struct SequenceState {
-  std::vector<float> belief;  // N locations, then off-map; sums to 1
-  uint32_t frames = 0;        // frames filtered so far
+  // N locations travelling up the route (towards higher location numbers), the same N
+  // travelling down it, then off-map; sums to 1. SequenceFilter::StateSize(N) values.
+  std::vector<float> belief;
+  uint32_t frames = 0;  // frames filtered so far
 };
 
 struct SequenceAnswer {
@@ -67,8 +75,11 @@ class SequenceFilter {
   SequenceAnswer Update(const FrameEvidence& evidence, SequenceState* state) const;
 
   // The band the map suggests: the median number of tour images its landmarks are seen in
-  // (at least 2), ahead; half of it (at least 1) behind.
+  // (at least 2), in either direction of travel.
   static int MotionBand(const Map& map);
+
+  // The size of a session's belief over `num_locations` tour locations.
+  static size_t StateSize(int num_locations) { return 2 * static_cast<size_t>(num_locations) + 1; }
 
   int max_forward() const { return forward_; }
   int max_backward() const { return backward_; }
@@ -85,7 +96,6 @@ class SequenceFilter {
   const SequenceOptions options_;
   int forward_ = 0;
   int backward_ = 0;
-  std::vector<float> kernel_;  // K(d) for d = -backward_ .. forward_, sums to 1
 };
 
 }  // namespace sceneloc

@@ -8,16 +8,18 @@
 namespace sceneloc {
 
 struct SequenceOptions {
-  // Motion band in tour locations per frame: how far ahead and behind the robot may move
-  // between two frames. -1 = from the map (SequenceFilter::MotionBand): the median number
-  // of tour frames a landmark is seen in, i.e. how many frames apart views still overlap.
+  // Motion band in tour locations per frame: how far the robot may move between two
+  // frames while travelling up the route (max_forward) and down it (max_backward). -1 =
+  // from the map (SequenceFilter::MotionBand): the median number of tour frames a landmark
+  // is seen in, i.e. how many frames apart views still overlap.
   int max_forward = -1;
   int max_backward = -1;
-  // Weight of each backward step against each forward one (robots mostly move forward).
-  double backward_weight = 0.25;
+  // Per frame, the probability that the robot turns round (starts travelling the other
+  // way along the route, e.g. backs up): robots mostly keep their direction.
+  double reverse = 0.01;
   // The kidnap floor: per frame, this share of the in-map mass is spread over every
   // location, so a robot carried elsewhere is found again within a few frames.
-  double jump = 0.02;
+  double jump = 0.03;
   // Per frame, the probability of leaving the route (in-map -> off-map) and of coming back
   // onto it anywhere (off-map -> in-map).
   double leave = 0.02;

@@ -11,6 +11,7 @@
 #include "client/client.h"
 #include "common/map/crc32.h"
 #include "common/map/map_io.h"
+#include "common/matching/sequence_filter.h"
 #include "proto/wire.h"
 #include "tests/server/server_test_support.h"
 
@@ -203,7 +204,8 @@ TEST_F(SessionTest, StatsCountSessions) {
   auto stats = client_->Stats();
   ASSERT_TRUE(stats.ok());
   EXPECT_EQ(stats->sessions(), 5u);
-  EXPECT_GE(stats->session_memory_bytes(), 5u * (kTestTourLocations + 1) * sizeof(float));
+  EXPECT_GE(stats->session_memory_bytes(),
+            5u * SequenceFilter::StateSize(kTestTourLocations) * sizeof(float));
 }
 
 // The fleet case: a session's frames answered by two server processes serving the same map
@@ -228,7 +230,7 @@ TEST_F(SessionTest, AnotherServerContinuesFromTheCarriedState) {
     ASSERT_TRUE(reply.ok());
     state = reply->session().state();
   }
-  EXPECT_EQ(state.size(), 28u + 4 * (kTestTourLocations + 1));
+  EXPECT_EQ(state.size(), 28u + 4 * SequenceFilter::StateSize(kTestTourLocations));
   auto reply = (*other)->Call(CarriedFrame(6, "walk-2", state));
   ASSERT_TRUE(reply.ok());
   ASSERT_EQ(reply->status(), v1::OK) << reply->error();

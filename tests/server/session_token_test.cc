@@ -3,6 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
+
+#include "common/map/crc32.h"
 
 namespace sceneloc {
 namespace {
@@ -13,22 +16,47 @@ TokenOwner Owner(const std::string& session = "robot-1", uint32_t checksum = 0xa
 
 SequenceState State() {
   SequenceState s;
-  s.belief = {0.1f, 0.6f, 0.2f, 0.05f, 0.05f};  // 4 locations and off-map
+  // 4 locations travelling up the route, the same 4 travelling down it, off-map.
+  s.belief = {0.05f, 0.3f, 0.1f, 0.025f, 0.05f, 0.3f, 0.1f, 0.025f, 0.05f};
   s.frames = 17;
   return s;
 }
 
-// A state survives the round trip exactly; its size is 28 + 4 (N + 1) bytes.
+// A state survives the round trip exactly; its size is 28 + 4 (2N + 1) bytes.
 TEST(SessionTokenTest, RoundTrip) {
   const std::string bytes = SerializeSessionToken(State(), Owner());
-  EXPECT_EQ(bytes.size(), 28u + 4 * 5);
+  EXPECT_EQ(bytes.size(), 28u + 4 * 9);
   SequenceState parsed;
   auto fit = ParseSessionToken(bytes, Owner(), &parsed);
   ASSERT_TRUE(fit.ok()) << fit.status().ToString();
   EXPECT_EQ(*fit, TokenFit::kFits);
   EXPECT_EQ(parsed.frames, 17u);
-  ASSERT_EQ(parsed.belief.size(), 5u);
-  for (size_t i = 0; i < 5; ++i) EXPECT_NEAR(parsed.belief[i], State().belief[i], 1e-6);
+  ASSERT_EQ(parsed.belief.size(), 9u);
+  for (size_t i = 0; i < 9; ++i) EXPECT_NEAR(parsed.belief[i], State().belief[i], 1e-6);
+}
+
+// A token of the format before the direction of travel (N + 1 values, "SLS1") that a
+// client kept across the server's upgrade starts its session again: not an error. The same
+// bytes damaged are still refused.
+TEST(SessionTokenTest, EarlierFormatStartsAgain) {
+  std::string old("SLS1");
+  const auto put = [&old](const void* p, size_t n) { old.append(static_cast<const char*>(p), n); };
+  const uint32_t header[3] = {0xabcdef01u, 4, 17};
+  const uint64_t session_hash = 0;
+  const float belief[5] = {0.1f, 0.6f, 0.2f, 0.05f, 0.05f};
+  put(header, sizeof(header));
+  put(&session_hash, sizeof(session_hash));
+  put(belief, sizeof(belief));
+  const uint32_t crc = Crc32(old.data(), old.size());
+  put(&crc, sizeof(crc));
+  SequenceState parsed;
+  parsed.frames = 99;
+  const auto fit = ParseSessionToken(old, Owner(), &parsed);
+  ASSERT_TRUE(fit.ok()) << fit.status().ToString();
+  EXPECT_EQ(*fit, TokenFit::kOtherMap);
+  EXPECT_EQ(parsed.frames, 99u);
+  old[10] = static_cast<char>(old[10] ^ 0x20);
+  EXPECT_EQ(ParseSessionToken(old, Owner(), &parsed).status().code(), StatusCode::kInvalidArgument);
 }
 
 // Any flipped byte, a truncation or no header at all: INVALID_ARGUMENT, state untouched.
@@ -63,7 +91,7 @@ TEST(SessionTokenTest, ForgedValuesAreRefused) {
   s = State();
   s.belief[1] = -0.5f;
   EXPECT_FALSE(ParseSessionToken(SerializeSessionToken(s, Owner()), Owner(), &parsed).ok());
-  s.belief.assign(5, 0.0f);
+  s.belief.assign(9, 0.0f);
   EXPECT_NE(ParseSessionToken(SerializeSessionToken(s, Owner()), Owner(), &parsed)
                 .status()
                 .message()

@@ -142,10 +142,10 @@ void PrintNegativesAndSession(const EvalReport& r) {
     const SequenceFilter filter(*r.map, r.options->sequence);
     std::printf(
         "session: the queries in %s as one session (sceneloc row; single = the same frames one "
-        "by one); motion band -%d..+%d, filter %.3f ms per frame\n",
+        "by one); motion band +%d up the route, -%d down it, filter %.3f ms per frame\n",
         session->kidnap > 1 ? (std::to_string(session->kidnap) + " shuffled segments").c_str()
                             : "file order",
-        filter.max_backward(), filter.max_forward(), session->run->filter_ms_median);
+        filter.max_forward(), filter.max_backward(), session->run->filter_ms_median);
     PrintRelocalisation("a correct answer", session->run->relocalisation.to_correct);
     PrintRelocalisation("a correct LOCALISED answer", session->run->relocalisation.to_localised);
   }

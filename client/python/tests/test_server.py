@@ -20,8 +20,8 @@ Connect = Callable[[ServerProcess], sceneloc.Client]
 
 
 def session_state_bytes(num_locations: int) -> int:
-    """The size of a session's state (server/session_token.h): 28 + 4 (N + 1) bytes."""
-    return 28 + 4 * (num_locations + 1)
+    """The size of a session's state (server/session_token.h): 28 + 4 (2N + 1) bytes."""
+    return 28 + 4 * (2 * num_locations + 1)
 
 
 # A JPEG of a tour image is localised at its own location, LOCALISED, with everything the
