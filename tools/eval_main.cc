@@ -2,11 +2,12 @@
 //   sceneloc-eval --map FILE --queries DIR [--ground-truth CSV] [--tolerance N]
 //                 [--baseline [--tour DIR]] [--negatives DIR] [--threads N]
 //                 [--config match.yaml] [--json OUT] [--reliability PNG] [--show]
-//                 [--sequence | --kidnap N [--seed S]]
+//                 [--sequence | --kidnap N [--seed S]] [--reverse]
 // With --sequence the queries in file order are one session (sequence_filter.h): the
 // table's "sceneloc" row is the session's answers, "single" the same frames answered one by
 // one. --kidnap N cuts that order into N shuffled segments and reports how many frames the
-// session needs to find the robot again after each jump.
+// session needs to find the robot again after each jump. --reverse runs the session over
+// the queries in reverse file order: a robot backing up the route.
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <cstdlib>
@@ -45,6 +46,7 @@ struct Args {
   bool sequence = false;
   int kidnap = 0;
   uint32_t seed = 1;
+  bool reverse = false;
   int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
 };
 
@@ -162,12 +164,13 @@ std::optional<SessionReport> RunSession(const Args& args, const sl::Map& map,
                                         const sl::MatchOptions& options,
                                         std::optional<sl::SequenceRun>* run,
                                         std::vector<sl::QueryOutcome>* outcomes) {
-  if (!args.sequence && args.kidnap <= 1) return std::nullopt;
+  if (!args.sequence && args.kidnap <= 1 && !args.reverse) return std::nullopt;
   const sl::Judging judging{map.options.tolerance, options.min_confidence};
-  const std::vector<int> order = sl::KidnapOrder(outcomes->size(), args.kidnap, args.seed);
+  const std::vector<int> order =
+      sl::KidnapOrder(outcomes->size(), args.kidnap, args.seed, args.reverse);
   *run = sl::RunSequence(*outcomes, map, options.sequence, order);
   SessionReport session{sl::SummariseMethod(*outcomes, sl::Method::kOurs, judging), &**run,
-                        *outcomes, args.kidnap};
+                        *outcomes, args.kidnap, args.reverse};
   for (size_t q = 0; q < outcomes->size(); ++q) (*outcomes)[q].ours = (*run)->filtered[q].ours;
   return session;
 }
@@ -267,6 +270,9 @@ int main(int argc, char** argv) {
                  "robot again after each jump)")
       ->check(CLI::Range(2, 100000));
   app.add_option("--seed", args.seed, "shuffle seed of --kidnap");
+  app.add_flag("--reverse", args.reverse,
+               "the session walks the queries in reverse file order (a robot backing up the "
+               "route); implies --sequence");
   CLI11_PARSE(app, argc, argv);
   if (print_config) {
     sl::MatchOptions options;

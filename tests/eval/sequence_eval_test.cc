@@ -32,6 +32,15 @@ TEST(KidnapOrderTest, ShuffledRunsWithoutNeighbours) {
   for (int i = 0; i < 10; ++i) EXPECT_EQ(file_order[i], i);
 }
 
+// Reversed (--reverse): the same order walked backwards, with or without a kidnap.
+TEST(KidnapOrderTest, Reversed) {
+  const std::vector<int> backwards = KidnapOrder(10, 1, 3, true);
+  for (int i = 0; i < 10; ++i) EXPECT_EQ(backwards[i], 9 - i);
+  std::vector<int> kidnap = KidnapOrder(100, 5, 3);
+  std::reverse(kidnap.begin(), kidnap.end());
+  EXPECT_EQ(KidnapOrder(100, 5, 3, true), kidnap);
+}
+
 // A session over synthetic single-frame outcomes: the filtered answers replace ours, and a
 // kidnap's jumps are each counted with the frames it took to be right again.
 TEST(RunSequenceTest, FiltersAndCountsRelocalisation) {
@@ -63,6 +72,16 @@ TEST(RunSequenceTest, FiltersAndCountsRelocalisation) {
     EXPECT_LE(kidnap.relocalisation.to_correct[i], kidnap.relocalisation.to_localised[i]);
     EXPECT_LE(kidnap.relocalisation.to_localised[i], 5);
   }
+  // Backing up the route: every step a neighbour (no jump), followed as well as walking on;
+  // and the reversed kidnap has the same three jumps.
+  const SequenceRun backwards = RunSequence(outcomes, map, options, KidnapOrder(60, 1, 1, true));
+  right = 0;
+  for (int q = 0; q < 60; ++q) right += std::abs(backwards.filtered[q].ours.predicted - q) <= 2;
+  EXPECT_GE(right, 57);
+  EXPECT_TRUE(backwards.relocalisation.to_correct.empty());
+  const SequenceRun reversed_kidnap =
+      RunSequence(outcomes, map, options, KidnapOrder(60, 4, 2, true));
+  EXPECT_EQ(reversed_kidnap.relocalisation.to_correct.size(), 3u);
 }
 
 }  // namespace

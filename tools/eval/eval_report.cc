@@ -66,7 +66,8 @@ nlohmann::json RelocalisationJson(const std::vector<int>& frames) {
 nlohmann::json SessionJson(const SessionReport& r) {
   nlohmann::json j = {{"single_frame", MethodJson(r.single)},
                       {"filter_ms_median", r.run->filter_ms_median},
-                      {"kidnap_segments", r.kidnap}};
+                      {"kidnap_segments", r.kidnap},
+                      {"reversed", r.reversed}};
   if (r.kidnap > 1) {
     j["frames_to_correct"] = RelocalisationJson(r.run->relocalisation.to_correct);
     j["frames_to_localised"] = RelocalisationJson(r.run->relocalisation.to_localised);
@@ -143,8 +144,10 @@ void PrintNegativesAndSession(const EvalReport& r) {
     std::printf(
         "session: the queries in %s as one session (sceneloc row; single = the same frames one "
         "by one); motion band +%d up the route, -%d down it, filter %.3f ms per frame\n",
-        session->kidnap > 1 ? (std::to_string(session->kidnap) + " shuffled segments").c_str()
-                            : "file order",
+        (std::string(session->reversed ? "reverse file order" : "file order") +
+         (session->kidnap > 1 ? ", in " + std::to_string(session->kidnap) + " shuffled segments"
+                              : ""))
+            .c_str(),
         filter.max_forward(), filter.max_backward(), session->run->filter_ms_median);
     PrintRelocalisation("a correct answer", session->run->relocalisation.to_correct);
     PrintRelocalisation("a correct LOCALISED answer", session->run->relocalisation.to_localised);

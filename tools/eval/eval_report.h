@@ -30,6 +30,7 @@ struct SessionReport {
   const SequenceRun* run = nullptr;
   std::vector<QueryOutcome> single_outcomes;
   int kidnap = 0;
+  bool reversed = false;  // the queries in reverse file order (--reverse)
 };
 
 // Everything one report shows. The pointees belong to the caller and must be set, except

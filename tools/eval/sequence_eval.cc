@@ -21,10 +21,13 @@ bool KeepsANeighbour(const std::vector<int>& runs) {
 
 }  // namespace
 
-std::vector<int> KidnapOrder(size_t n, int segments, uint32_t seed) {
+std::vector<int> KidnapOrder(size_t n, int segments, uint32_t seed, bool reversed) {
   std::vector<int> order(n);
   std::iota(order.begin(), order.end(), 0);
-  if (segments <= 1 || n < 2) return order;
+  if (segments <= 1 || n < 2) {
+    if (reversed) std::reverse(order.begin(), order.end());
+    return order;
+  }
   const size_t runs = std::min<size_t>(static_cast<size_t>(segments), n);
   std::vector<int> run_order(runs);
   std::iota(run_order.begin(), run_order.end(), 0);
@@ -40,6 +43,7 @@ std::vector<int> KidnapOrder(size_t n, int segments, uint32_t seed) {
     const size_t begin = n * r / runs, end = n * (r + 1) / runs;
     for (size_t i = begin; i < end; ++i) out.push_back(static_cast<int>(i));
   }
+  if (reversed) std::reverse(out.begin(), out.end());
   return out;
 }
 
@@ -54,7 +58,7 @@ SequenceRun RunSequence(const std::vector<QueryOutcome>& outcomes, const Map& ma
   int since_jump_correct = -1, since_jump_localised = -1;  // -1: recovered (or no jump yet)
   for (size_t k = 0; k < order.size(); ++k) {
     const int q = order[k];
-    const bool jump = k > 0 && order[k] != order[k - 1] + 1;
+    const bool jump = k > 0 && std::abs(order[k] - order[k - 1]) != 1;
     if (jump) {
       if (since_jump_correct >= 0) run.relocalisation.to_correct.push_back(since_jump_correct);
       if (since_jump_localised >= 0) {

@@ -15,8 +15,9 @@ namespace sceneloc {
 
 // 0..n-1 cut into `segments` nearly equal runs, the runs shuffled (seeded), so that no run
 // follows the one it followed in file order (when there are at least 3). segments <= 1:
-// file order.
-std::vector<int> KidnapOrder(size_t n, int segments, uint32_t seed);
+// file order. With `reversed`, the whole order backwards (a robot backing up the route:
+// each run walked down it, and no run follows the one it preceded in file order).
+std::vector<int> KidnapOrder(size_t n, int segments, uint32_t seed, bool reversed = false);
 
 // How soon the filter finds the robot again after each jump of a kidnap order.
 struct Relocalisation {
@@ -35,7 +36,9 @@ struct SequenceRun {
   double filter_ms_median = 0;  // the filter's own time per frame
 };
 
-// Runs one session over `outcomes` (single-frame results already in) in `order`.
+// Runs one session over `outcomes` (single-frame results already in) in `order`. A jump
+// (for Relocalisation) is a step between frames that are not neighbours in file order,
+// either way.
 // REQUIRES: options.Validate().ok(); order a permutation of the outcomes' indices.
 SequenceRun RunSequence(const std::vector<QueryOutcome>& outcomes, const Map& map,
                         const SequenceOptions& options, const std::vector<int>& order);
