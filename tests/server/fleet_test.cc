@@ -116,13 +116,16 @@ TEST(FleetTest, WorkersComeAndGoWithoutAFailedRequest) {
   test::TestServer c = StartWorker(broker);
   ASSERT_NE(c.server, nullptr);
   auto client = ClientOf(broker);
-  for (int i = 0; i < 4; ++i)
+  for (int i = 0; i < 8; ++i)
     ASSERT_TRUE(client->Localise(kTestMapName, test::TourFeatures(i)).ok());
   const std::vector<uint64_t> counts = RequestsPerWorker(client.get());
   ASSERT_EQ(counts.size(), 2u);
-  // One of the two is the newcomer: it has only this client's requests (half the 4
-  // localise requests and its stats request).
-  EXPECT_EQ(std::min(counts[0], counts[1]), 3u);
+  // One of the two is the newcomer: it has only this client's requests, its share of the 8
+  // localise requests (the broker alternates; the newcomer's connection is attached
+  // asynchronously, so the first one or two may still go to the other worker) and its
+  // stats request. (Asserting exactly half of 4 failed once in CI on that race.)
+  EXPECT_GE(std::min(counts[0], counts[1]), 3u);
+  EXPECT_LE(std::min(counts[0], counts[1]), 5u);
 }
 
 // A robot's session continues across workers: its frames alternate between the two, and
