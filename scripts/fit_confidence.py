@@ -2,8 +2,8 @@
 """Re-fits the temperature of the calibrated confidence, leaving each family of sets out.
 
 The confidence (common/matching/confidence.h) is the softmax posterior of every location's
-fused evidence at one temperature T, summed over the answer's +-tolerance, times P(in the
-map). T is a constant of the method, not of a map; it was chosen on the development sets
+fused evidence at temperature T (at plateau * T within tolerance + 1 of the answer),
+summed over the answer's +-tolerance, times P(in the map). T is a constant of the method, not of a map; it was chosen on the development sets
 and must be re-checked whenever the evidence changes (a new descriptor, a new stage).
 
 Reads the per-query evidence of an accuracy-suite run (OUT/accuracy.json from
@@ -19,7 +19,7 @@ scripts/accuracy.sh: each query's location scores and P(in the map)), and:
 A new T is worth shipping only if every held-out fit lands near it and held-out ECE does
 not rise on any family.
 
-Usage: scripts/fit_confidence.py OUT_DIR [SHIPPED_T] [TOLERANCE]
+Usage: scripts/fit_confidence.py OUT_DIR [SHIPPED_T] [TOLERANCE] [PLATEAU]
        (packages: scripts/setup.sh --plots)
 """
 import json
@@ -35,19 +35,21 @@ from recalibration_check import FAMILY, ece, ece_floor  # noqa: E402
 class Query:
     """One query's evidence: near[l] marks the locations within tolerance of the answer."""
 
-    def __init__(self, q, tolerance):
+    def __init__(self, q, tolerance, plateau):
         self.scores = np.asarray(q["evidence"]["scores"], dtype=float)
         self.in_map = q["evidence"]["in_map"]
         self.predicted, self.reported = q["sceneloc"]
         self.correct = float(self.predicted >= 0 and abs(self.predicted - q["truth"]) <= tolerance)
         idx = np.arange(len(self.scores))
         self.near = np.abs(idx - self.predicted) <= tolerance
+        # the answer's plateau is read at plateau * T (MatchOptions::confidence_plateau)
+        self.scale = np.where(np.abs(idx - self.predicted) <= tolerance + 1, plateau, 1.0)
 
     def confidence(self, t):
         s = self.scores
         if len(s) == 0 or s.max() == s.min() or self.predicted < 0:
             return 0.0
-        w = np.exp((s - s.max()) / t)
+        w = np.exp((s - s.max()) / (t * self.scale))
         p = w[self.near].sum() / w.sum()
         return p * (self.in_map if self.in_map >= 0 else 1.0)
 
@@ -74,14 +76,15 @@ def fit(queries):
 def main():
     if len(sys.argv) < 2:
         sys.exit(__doc__)
-    shipped = float(sys.argv[2]) if len(sys.argv) > 2 else 0.31
+    shipped = float(sys.argv[2]) if len(sys.argv) > 2 else 0.28
     tolerance = int(sys.argv[3]) if len(sys.argv) > 3 else 2
+    plateau = float(sys.argv[4]) if len(sys.argv) > 4 else 2.0
     report = json.load(open(sys.argv[1] + "/accuracy.json"))
     sets = {}
     for s in report["sets"]:
         qs = s.get("per_query", [])
         if qs and "evidence" in qs[0]:
-            sets[s["name"]] = [Query(q, tolerance) for q in qs]
+            sets[s["name"]] = [Query(q, tolerance, plateau) for q in qs]
     if not sets:
         sys.exit("no per-query evidence in accuracy.json: re-run scripts/accuracy.sh")
 

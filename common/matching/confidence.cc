@@ -23,16 +23,19 @@ ConfidenceModel SupportedModel(const Map& map, ConfidenceModel wanted) {
 }
 
 double LocationPosterior(const std::vector<float>& location_scores, int answer, int tolerance,
-                         double temperature) {
+                         double temperature, double plateau) {
   if (location_scores.empty()) return 0;
   const auto [low, high] = std::minmax_element(location_scores.begin(), location_scores.end());
   if (*low == *high) return 0;  // no evidence tells any location from another
   const float top = *high;
+  const double flat = plateau * temperature;
   double total = 0, near = 0;
   for (size_t l = 0; l < location_scores.size(); ++l) {
-    const double w = std::exp((location_scores[l] - top) / temperature);  // <= 1: no overflow
+    const int offset = std::abs(static_cast<int>(l) - answer);
+    const double t = offset <= tolerance + 1 ? flat : temperature;
+    const double w = std::exp((location_scores[l] - top) / t);  // <= 1: no overflow
     total += w;
-    if (std::abs(static_cast<int>(l) - answer) <= tolerance) near += w;
+    if (offset <= tolerance) near += w;
   }
   return near / total;
 }
@@ -46,9 +49,9 @@ double InMapProbability(const Map& map, double nearest_holistic_distance) {
 }
 
 double CalibratedConfidence(const Map& map, const std::vector<float>& location_scores, int answer,
-                            double nearest_holistic_distance) {
+                            double nearest_holistic_distance, double plateau) {
   return LocationPosterior(location_scores, answer, map.options.tolerance,
-                           map.options.confidence_temperature) *
+                           map.options.confidence_temperature, plateau) *
          InMapProbability(map, nearest_holistic_distance);
 }
 

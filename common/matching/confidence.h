@@ -9,7 +9,12 @@
 //     evidence s_l (LocationScores, a robust z-scale) read as a posterior over locations,
 //     exp(s_l / T) normalised over the tour, summed over the answer's tolerance window.
 //     Neighbouring frames share the answer's mass instead of competing with it; a distant
-//     look-alike with similar evidence halves it.
+//     look-alike with similar evidence halves it. The answer's own stretch of the route
+//     (within tolerance + 1 frames) is read at a flatter temperature, plateau x T:
+//     neighbouring tour frames share most of what the query matches, so the differences
+//     of their evidence are weaker than those between distinct places, and a query whose
+//     evidence rises evenly across a few frames may lie one frame past the tolerance
+//     (docs/results.md "The answer's plateau").
 //   P(the query shows a place of the route): a logistic in how much closer the query's
 //     nearest tour image is (smallest holistic distance) than a frame that shows no place
 //     of the route comes (the map's calibration, measured at training time from the tour).
@@ -37,20 +42,21 @@ StatusOr<ConfidenceModel> ParseConfidenceModel(const std::string& name);
 ConfidenceModel SupportedModel(const Map& map, ConfidenceModel wanted);
 
 // P(within tolerance | in the map): the posterior mass of locations within `tolerance`
-// of `answer`, with location_scores[l] read as log-likelihoods at `temperature`.
+// of `answer`, with location_scores[l] read as log-likelihoods at `temperature`, or at
+// plateau * temperature within tolerance + 1 of `answer` (plateau 1: one temperature).
 // 0 when there are no scores or all are equal (nothing tells any location from another).
-// REQUIRES: temperature > 0, answer < location_scores.size().
+// REQUIRES: temperature > 0, plateau >= 1, answer < location_scores.size().
 double LocationPosterior(const std::vector<float>& location_scores, int answer, int tolerance,
-                         double temperature);
+                         double temperature, double plateau);
 
 // P(in the map) from the query's smallest holistic distance to the tour; 1 when it is
 // unknown (negative: no holistic descriptor) or the map is uncalibrated.
 double InMapProbability(const Map& map, double nearest_holistic_distance);
 
 // The calibrated confidence: LocationPosterior * InMapProbability, with the map's
-// tolerance and constants.
+// tolerance and constants and the given plateau (MatchOptions::confidence_plateau).
 double CalibratedConfidence(const Map& map, const std::vector<float>& location_scores, int answer,
-                            double nearest_holistic_distance);
+                            double nearest_holistic_distance, double plateau);
 
 // The paper's confidence: L1 / (L1 + L2) over the two highest L; 0 when nothing matched,
 // 1 with a single location.

@@ -109,11 +109,11 @@ void AssessAnswer(const Map& map, const MatchOptions& options, const std::vector
       options.confidence_model == "paper" ? ConfidenceModel::kPaper : ConfidenceModel::kCalibrated;
   result->confidence_model = SupportedModel(map, wanted);
   if (order.empty()) return;
-  result->confidence =
-      static_cast<float>(result->confidence_model == ConfidenceModel::kPaper
-                             ? PaperConfidence(likelihood)
-                             : CalibratedConfidence(map, result->location_scores, order[0],
-                                                    result->nearest_holistic_distance));
+  result->confidence = static_cast<float>(
+      result->confidence_model == ConfidenceModel::kPaper
+          ? PaperConfidence(likelihood)
+          : CalibratedConfidence(map, result->location_scores, order[0],
+                                 result->nearest_holistic_distance, options.confidence_plateau));
   result->decision =
       result->confidence >= options.min_confidence ? Decision::kLocalised : Decision::kUnknown;
 }

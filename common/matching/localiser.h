@@ -82,6 +82,10 @@ struct MatchOptions {
   // The confidence model ("calibrated" or "paper"); a map without calibration (format
   // version 1) always answers with "paper".
   std::string confidence_model = "calibrated";
+  // The calibrated confidence reads the answer's own stretch of the route (within the map's
+  // tolerance + 1 frames) at this multiple of the map's temperature (confidence.h; 1 = one
+  // temperature everywhere). Measured: docs/results.md "The answer's plateau".
+  double confidence_plateau = 2;
   // Answers with a confidence below this are UNKNOWN (in [0, 1]; 0 = always LOCALISED).
   // Measured: 0.8 accepts 88% of the correct Gardens Point day answers and none of the
   // out-of-map frames of the development sets (docs/results.md).

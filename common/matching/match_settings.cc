@@ -59,6 +59,9 @@ SettingTable MatchSettings(MatchOptions* o) {
       Setting("matching", "confidence_model", &o->confidence_model)
           .Choices({"calibrated", "paper"})
           .Help("P(answer within the map's tolerance); paper = L1/(L1+L2)"),
+      Setting("matching", "confidence_plateau", &o->confidence_plateau)
+          .Range(1, 10)
+          .Help("the answer's +-(tolerance + 1) frames at this x the temperature; 1 = off"),
       Setting("matching", "min_confidence", &o->min_confidence)
           .Range(0, 1)
           .Help("answers below are UNKNOWN (measured: docs/results.md)"),

@@ -9,23 +9,24 @@
 namespace sceneloc {
 namespace {
 
-constexpr double kT = 0.31;  // the default temperature
+constexpr double kT = 0.28;       // the default temperature
+constexpr double kPlateau = 2.0;  // the default plateau (MatchOptions::confidence_plateau)
 
 // A clear winner with its neighbours close behind: nearly all mass within the tolerance.
 TEST(ConfidenceTest, ClearWinnerWithNeighbours) {
   std::vector<float> s(100, 0.0f);
   s[40] = 6.0f;
   s[39] = s[41] = 4.5f;
-  EXPECT_GT(LocationPosterior(s, 40, 2, kT), 0.99);
+  EXPECT_GT(LocationPosterior(s, 40, 2, kT, kPlateau), 0.99);
 }
 
 // Two distant places with the same evidence share the mass: about one half each.
 TEST(ConfidenceTest, TwoDistantRivalsHalveIt) {
   std::vector<float> s(100, 0.0f);
   s[10] = s[70] = 5.0f;
-  EXPECT_NEAR(LocationPosterior(s, 10, 2, kT), 0.5, 0.01);
+  EXPECT_NEAR(LocationPosterior(s, 10, 2, kT, kPlateau), 0.5, 0.01);
   s[70] = 4.0f;  // a weaker rival: the answer keeps more
-  const double p = LocationPosterior(s, 10, 2, kT);
+  const double p = LocationPosterior(s, 10, 2, kT, kPlateau);
   EXPECT_GT(p, 0.9);
   EXPECT_LT(p, 1.0);
 }
@@ -34,26 +35,69 @@ TEST(ConfidenceTest, TwoDistantRivalsHalveIt) {
 TEST(ConfidenceTest, AdjacentFramesAreNotRivals) {
   std::vector<float> s(100, 0.0f);
   s[50] = s[51] = s[52] = 5.0f;
-  EXPECT_GT(LocationPosterior(s, 51, 2, kT), 0.99);
-  EXPECT_NEAR(LocationPosterior(s, 51, 0, kT), 1.0 / 3.0, 0.01);  // tolerance 0: they are
+  EXPECT_GT(LocationPosterior(s, 51, 2, kT, kPlateau), 0.99);
+  EXPECT_NEAR(LocationPosterior(s, 51, 0, kT, kPlateau), 1.0 / 3.0, 0.01);  // tolerance 0: they are
 }
 
 // Nothing matched: no evidence tells any location from another, so no confidence; a single
 // location with a little evidence gets little more than its window's share.
 TEST(ConfidenceTest, NothingMatchedIsZero) {
   std::vector<float> s(100, 0.0f);
-  EXPECT_EQ(LocationPosterior(s, 50, 2, kT), 0.0);
-  EXPECT_EQ(LocationPosterior({}, 0, 2, kT), 0.0);
+  EXPECT_EQ(LocationPosterior(s, 50, 2, kT, kPlateau), 0.0);
+  EXPECT_EQ(LocationPosterior({}, 0, 2, kT, kPlateau), 0.0);
   s[50] = 0.01f;
-  EXPECT_NEAR(LocationPosterior(s, 50, 2, kT), 5.0 / 100.0, 0.01);
-  EXPECT_NEAR(LocationPosterior(s, 0, 2, kT), 3.0 / 100.0, 0.01);  // the tour's first frame
+  EXPECT_NEAR(LocationPosterior(s, 50, 2, kT, kPlateau), 5.0 / 100.0, 0.01);
+  EXPECT_NEAR(LocationPosterior(s, 0, 2, kT, kPlateau), 3.0 / 100.0,
+              0.01);  // the tour's first frame
+}
+
+// Evidence that rises evenly over a few frames and peaks one frame past the tolerance of
+// the truth (Gardens Point day query 40, answered 37: scores 8.8, 8.0, 7.6 at 37-39, 6.7 and
+// 6.8 at 40-41): one temperature reads the small steps between neighbours as certainty;
+// the plateau reading leaves room for the truth beyond the tolerance.
+TEST(ConfidenceTest, APlateauPastTheToleranceLowersIt) {
+  std::vector<float> s(100, 0.0f);
+  s[37] = 8.77f;
+  s[38] = 7.97f;
+  s[39] = 7.55f;
+  s[40] = 6.73f;
+  s[41] = 6.82f;
+  const double one = LocationPosterior(s, 37, 2, kT, 1.0);
+  const double flat = LocationPosterior(s, 37, 2, kT, kPlateau);
+  EXPECT_GT(one, 0.99);
+  EXPECT_LT(flat, one - 0.01);
+  EXPECT_LT(LocationPosterior(s, 37, 2, kT, 4.0), flat);  // flatter still: lower still
+  // By hand: offsets 0-3 read at 2T, offset 4 and beyond at T.
+  double near = 0, total = 0;
+  for (int l = 0; l < 100; ++l) {
+    const int offset = std::abs(l - 37);
+    const double w = std::exp((s[l] - s[37]) / (offset <= 3 ? kPlateau * kT : kT));
+    total += w;
+    if (offset <= 2) near += w;
+  }
+  EXPECT_NEAR(flat, near / total, 1e-6);
+}
+
+// The plateau changes nothing about distant rivals, nor about a lone peak: plateau 1 is the
+// single-temperature posterior.
+TEST(ConfidenceTest, ThePlateauLeavesDistantRivalsAlone) {
+  std::vector<float> s(100, 0.0f);
+  s[10] = s[70] = 5.0f;
+  EXPECT_NEAR(LocationPosterior(s, 10, 2, kT, kPlateau), 0.5, 0.01);
+  EXPECT_NEAR(LocationPosterior(s, 10, 2, kT, kPlateau), LocationPosterior(s, 10, 2, kT, 1.0),
+              0.001);
+  s[70] = 4.0f;
+  double total = 0;
+  for (float v : s) total += std::exp((v - 5.0) / kT);
+  EXPECT_NEAR(LocationPosterior(s, 10, 2, kT, 1.0), 1.0 / total * (1 + 4 * std::exp(-5 / kT)),
+              1e-6);
 }
 
 // Large scores do not overflow.
 TEST(ConfidenceTest, LargeScoresStayFinite) {
   std::vector<float> s(10, 1000.0f);
   s[3] = 1200.0f;
-  EXPECT_NEAR(LocationPosterior(s, 3, 0, kT), 1.0, 1e-9);
+  EXPECT_NEAR(LocationPosterior(s, 3, 0, kT, kPlateau), 1.0, 1e-9);
 }
 
 // The in-map probability falls as the query's nearest tour image gets as far as frames
