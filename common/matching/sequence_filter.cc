@@ -55,6 +55,17 @@ SequenceFilter::SequenceFilter(const Map& map, const SequenceOptions& options)
   backward_ = options.max_backward >= 0 ? options.max_backward : band;
 }
 
+int SequenceFilter::ReflectAtEnds(int target, int n, bool* turned) {
+  *turned = false;
+  // Mirrors between the end locations and one past them: -1 -> 0, -2 -> 1, n -> n - 1.
+  // Repeated only when a step is longer than the whole route.
+  while (target < 0 || target >= n) {
+    target = target < 0 ? -target - 1 : 2 * n - 1 - target;
+    *turned = !*turned;
+  }
+  return target;
+}
+
 void SequenceFilter::Predict(std::vector<float>* belief) const {
   const int n = num_locations_;
   std::vector<float>& b = *belief;
@@ -62,20 +73,27 @@ void SequenceFilter::Predict(std::vector<float>* belief) const {
   const double off = b[2 * n];
   const double turn = options_.reverse;
   // Each direction of travel after a possible turn, then its step: 0..forward_ locations
-  // up the route, or 0..backward_ down it, each equally likely; a step past either end of
-  // the route stays at the end.
+  // up the route, or 0..backward_ down it, each equally likely. A step past either end of
+  // the route turns the robot round there and it walks the rest of the step back (ReflectAt
+  // Ends): kept at the end instead, every step past it would pile up on the end location
+  // and a robot standing near the start of the route would be answered at its first frame.
   std::vector<float> up(static_cast<size_t>(n), 0.0f), down(static_cast<size_t>(n), 0.0f);
+  const auto land = [&](int target, bool upwards, float w) {
+    bool turned = false;
+    const int at = ReflectAtEnds(target, n, &turned);
+    (upwards != turned ? up : down)[static_cast<size_t>(at)] += w;
+  };
   const double up_step = 1.0 / (forward_ + 1), down_step = 1.0 / (backward_ + 1);
   for (int i = 0; i < n; ++i) {
     const double going_up = (1 - turn) * b[i] + turn * b[n + i];
     const double going_down = (1 - turn) * b[n + i] + turn * b[i];
     if (going_up != 0) {
       const auto w = static_cast<float>(going_up * up_step);
-      for (int d = 0; d <= forward_; ++d) up[std::min(i + d, n - 1)] += w;
+      for (int d = 0; d <= forward_; ++d) land(i + d, true, w);
     }
     if (going_down != 0) {
       const auto w = static_cast<float>(going_down * down_step);
-      for (int d = 0; d <= backward_; ++d) down[std::max(i - d, 0)] += w;
+      for (int d = 0; d <= backward_; ++d) land(i - d, false, w);
     }
   }
   // The kidnap floor and the way back onto the route: any location, either direction.

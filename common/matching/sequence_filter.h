@@ -8,7 +8,8 @@
 // One step, causal (an answer uses only the frames so far):
 //   predict:  the robot turns round with probability `reverse`, then steps 0..max_forward
 //             locations up the route if travelling up it, 0..max_backward down it if
-//             travelling down, each step equally likely; a kidnap floor spreads `jump` of
+//             travelling down, each step equally likely (a step past an end of the route
+//             turns round there and walks back the rest); a kidnap floor spreads `jump` of
 //             the mass over every location and direction, so a robot carried elsewhere is
 //             found again; off-map enters and leaves at the rates below.
 //   update:   belief'(l, d) *= P(frame | l)^evidence_weight, normalised. P(frame | l) is
@@ -77,6 +78,11 @@ class SequenceFilter {
   // The band the map suggests: the median number of tour images its landmarks are seen in
   // (at least 2), in either direction of travel.
   static int MotionBand(const Map& map);
+
+  // Where a step to `target` lands on a route of `n` locations: past either end, the robot
+  // turns round there and walks the rest of the step back (*turned set). A uniform belief
+  // stays uniform through the prediction. REQUIRES: n >= 1.
+  static int ReflectAtEnds(int target, int n, bool* turned);
 
   // The size of a session's belief over `num_locations` tour locations.
   static size_t StateSize(int num_locations) { return 2 * static_cast<size_t>(num_locations) + 1; }

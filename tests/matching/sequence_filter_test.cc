@@ -71,6 +71,59 @@ TEST_F(SequenceFilterTest, StandingStill) {
   EXPECT_GT(a.probability, 0.95);
 }
 
+// Without evidence the prediction alone keeps a uniform belief uniform: a step past an end
+// of the route turns round there instead of piling up on the end location (which answered
+// a robot standing near the start of the corridor's route at its first frame).
+TEST_F(SequenceFilterTest, EndsOfTheRouteGatherNoBelief) {
+  options_.max_forward = 2;  // the same band both ways, as the map's default
+  options_.max_backward = 2;
+  const SequenceFilter filter = Filter();
+  SequenceState state;
+  for (int t = 0; t < 12; ++t) filter.Update(FrameEvidence{}, &state);
+  const double off = state.belief[2 * kLocations];
+  const double each = (1 - off) / kLocations;
+  for (int l = 0; l < kLocations; ++l) {
+    EXPECT_NEAR(state.belief[l] + state.belief[kLocations + l], each, each * 1e-4) << l;
+  }
+}
+
+// A robot standing near the start of the route with weak evidence is answered where it
+// stands, not at the route's first location.
+TEST_F(SequenceFilterTest, StandingNearTheStartOfTheRoute) {
+  options_.max_forward = 2;  // the same band both ways, as the map's default
+  options_.max_backward = 2;
+  const SequenceFilter filter = Filter();
+  FrameEvidence weak;  // a broad, noiseless bump at location 2
+  weak.in_map = 0.95;
+  weak.location_scores.resize(kLocations);
+  for (int l = 0; l < kLocations; ++l) {
+    weak.location_scores[l] = static_cast<float>(std::exp(-(l - 2.0) * (l - 2.0) / 8));
+  }
+  SequenceState state;
+  for (int t = 0; t < 15; ++t) {
+    EXPECT_LE(std::abs(filter.Update(weak, &state).location - 2), 1) << "frame " << t;
+  }
+}
+
+TEST(SequenceFilterReflectTest, StepsPastTheEndsTurnRound) {
+  bool turned = true;
+  EXPECT_EQ(SequenceFilter::ReflectAtEnds(5, 10, &turned), 5);
+  EXPECT_FALSE(turned);
+  EXPECT_EQ(SequenceFilter::ReflectAtEnds(-1, 10, &turned), 0);
+  EXPECT_TRUE(turned);
+  EXPECT_EQ(SequenceFilter::ReflectAtEnds(-3, 10, &turned), 2);
+  EXPECT_TRUE(turned);
+  EXPECT_EQ(SequenceFilter::ReflectAtEnds(10, 10, &turned), 9);
+  EXPECT_TRUE(turned);
+  EXPECT_EQ(SequenceFilter::ReflectAtEnds(12, 10, &turned), 7);
+  EXPECT_TRUE(turned);
+  // Steps longer than the route fold back and forth: on one location everything lands on it.
+  EXPECT_EQ(SequenceFilter::ReflectAtEnds(2, 1, &turned), 0);
+  EXPECT_FALSE(turned);
+  EXPECT_EQ(SequenceFilter::ReflectAtEnds(-4, 3, &turned), 2);
+  EXPECT_FALSE(turned);
+}
+
 // Walking backwards along the route is followed too (within the backward band).
 TEST_F(SequenceFilterTest, WalkingBackwards) {
   const SequenceFilter filter = Filter();
