@@ -8,11 +8,11 @@
 namespace sceneloc {
 namespace {
 
-constexpr char kMagic[4] = {'S', 'L', 'S', '2'};
-// The format before the direction of travel was state (N + 1 values): well-formed ones
-// start the session again, as a token of another map does.
-constexpr char kOldMagic[4] = {'S', 'L', 'S', '1'};
-constexpr size_t kHeaderBytes = 4 + 4 + 4 + 4 + 8;
+constexpr char kMagic[4] = {'S', 'L', 'S', '3'};
+// The formats before the speed was state ("SLS1": N + 1 values; "SLS2": the direction of
+// travel, 2N + 1): well-formed ones start the session again, as a token of another map does.
+constexpr char kOldMagics[2][4] = {{'S', 'L', 'S', '1'}, {'S', 'L', 'S', '2'}};
+constexpr size_t kHeaderBytes = 4 + 4 + 4 + 4 + 4 + 8;
 
 uint64_t SessionHash(const TokenOwner& owner) {
   uint64_t h = 14695981039346656037ull;  // FNV-1a, 64 bits
@@ -48,6 +48,7 @@ std::string SerializeSessionToken(const SequenceState& state, const TokenOwner& 
   out.append(kMagic, sizeof(kMagic));
   Put<uint32_t>(&out, owner.map_checksum);
   Put<uint32_t>(&out, static_cast<uint32_t>(owner.num_locations));
+  Put<uint32_t>(&out, static_cast<uint32_t>(owner.num_speeds));
   Put<uint32_t>(&out, state.frames);
   Put<uint64_t>(&out, SessionHash(owner));
   for (const float b : state.belief) Put<float>(&out, b);
@@ -61,7 +62,8 @@ StatusOr<TokenFit> ParseSessionToken(const std::string& bytes, const TokenOwner&
     return InvalidArgument("session_state is not a state this server made (" + why +
                            "): send the `state` of the session's last reply, or none");
   };
-  const bool old_format = bytes.size() >= 4 && std::memcmp(bytes.data(), kOldMagic, 4) == 0;
+  const bool old_format = bytes.size() >= 4 && (std::memcmp(bytes.data(), kOldMagics[0], 4) == 0 ||
+                                                std::memcmp(bytes.data(), kOldMagics[1], 4) == 0);
   if (bytes.size() < kHeaderBytes + 4 ||
       (std::memcmp(bytes.data(), kMagic, 4) != 0 && !old_format)) {
     return corrupt("no session state header");
@@ -73,16 +75,23 @@ StatusOr<TokenFit> ParseSessionToken(const std::string& bytes, const TokenOwner&
   at = sizeof(kMagic);
   const uint32_t checksum = Get<uint32_t>(bytes, &at);
   const uint32_t locations = Get<uint32_t>(bytes, &at);
+  const uint32_t speeds = Get<uint32_t>(bytes, &at);
   const uint32_t frames = Get<uint32_t>(bytes, &at);
   const uint64_t session = Get<uint64_t>(bytes, &at);
-  const size_t values = SequenceFilter::StateSize(static_cast<int>(locations));
-  if ((body - kHeaderBytes) % 4 != 0 || (body - kHeaderBytes) / 4 != values) {
-    return corrupt("size does not match its location count");
+  // Both counts are bounded by the token's own size before they are multiplied.
+  const size_t floats = (body - kHeaderBytes) / 4;
+  if ((body - kHeaderBytes) % 4 != 0 || locations == 0 || speeds == 0 || locations > floats ||
+      speeds > floats ||
+      SequenceFilter::StateSize(static_cast<int>(locations), static_cast<int>(speeds)) != floats) {
+    return corrupt("size does not match its location and speed counts");
   }
+  const size_t values = floats;
   if (session != SessionHash(owner)) {
     return InvalidArgument("session_state belongs to another session (another name or key)");
   }
-  if (checksum != owner.map_checksum || static_cast<int>(locations) != owner.num_locations) {
+  // Another map, map version, or filter settings (another number of speeds): start again.
+  if (checksum != owner.map_checksum || static_cast<int>(locations) != owner.num_locations ||
+      static_cast<int>(speeds) != owner.num_speeds) {
     return TokenFit::kOtherMap;
   }
   SequenceState parsed;

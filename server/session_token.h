@@ -4,12 +4,13 @@
 // eviction, expiry). The client sends back the state of its last reply; sceneloc::Client
 // does it by itself.
 //
-// Layout (little-endian): "SLS2", uint32 map checksum (the map file's CRC-32: the same in
-// every process serving that file), uint32 locations N, uint32 frames, uint64 session hash
-// (FNV-1a of the client's key name and the session name), 2N + 1 float32 belief
-// (SequenceState), uint32 CRC-32 of everything before it. 28 + 4 (2N + 1) bytes: 1632 at
-// 200 locations. A well-formed token of the earlier format ("SLS1", N + 1 values, before
-// the direction of travel was state) starts the session again, as another map's does.
+// Layout (little-endian): "SLS3", uint32 map checksum (the map file's CRC-32: the same in
+// every process serving that file), uint32 locations N, uint32 speeds S (the filter's
+// num_speeds()), uint32 frames, uint64 session hash (FNV-1a of the client's key name and the
+// session name), S N + 1 float32 belief (SequenceState), uint32 CRC-32 of everything before
+// it. 32 + 4 (S N + 1) bytes: 7,240 at 200 locations and 9 speeds. A well-formed token of an
+// earlier format ("SLS1": N + 1 values; "SLS2": 2N + 1, the direction of travel) or of other
+// filter settings (another S) starts the session again, as another map's does.
 //
 // The bytes come from the client: untrusted. ParseSessionToken checks size, checksum,
 // finite non-negative belief with a positive sum, and which session it belongs to.
@@ -31,6 +32,7 @@ struct TokenOwner {
   std::string session;
   uint32_t map_checksum = 0;
   int num_locations = 0;
+  int num_speeds = 0;  // SequenceFilter::num_speeds() of the map's filter
 };
 
 std::string SerializeSessionToken(const SequenceState& state, const TokenOwner& owner);

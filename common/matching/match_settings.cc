@@ -74,19 +74,19 @@ SettingTable MatchSettings(MatchOptions* o) {
 SettingTable SequenceSettings(SequenceOptions* o) {
   return {
       Setting("sequence", "max_forward", &o->max_forward)
-          .Range(0, 1000)
+          .Range(0, 32)
           .Off(-1)
-          .Help("motion band up the route, locations per frame (-1 = from the map)")
+          .Help("fastest speed up the route, locations per frame (-1 = from the map)")
           .Flag("sequence-max-forward"),
       Setting("sequence", "max_backward", &o->max_backward)
-          .Range(0, 1000)
+          .Range(0, 32)
           .Off(-1)
-          .Help("and down it, for a robot travelling that way (-1 = from the map)")
+          .Help("and down it (-1 = from the map)")
           .Flag("sequence-max-backward"),
-      Setting("sequence", "reverse", &o->reverse)
+      Setting("sequence", "speed_change", &o->speed_change)
           .Range(0, 1)
-          .Help("per frame, P(turning round: travelling the other way along the route)")
-          .Flag("sequence-reverse"),
+          .Help("per frame, P(the speed changes by half a location per frame)")
+          .Flag("sequence-speed-change"),
       Setting("sequence", "jump", &o->jump)
           .Range(0, 1)
           .Help("kidnap floor: share of the belief spread over every location per frame")
@@ -103,6 +103,10 @@ SettingTable SequenceSettings(SequenceOptions* o) {
           .Range(1e-6, 1)
           .Help("exponent on each frame's likelihood (1 = frames independent)")
           .Flag("sequence-evidence-weight"),
+      Setting("sequence", "evidence_spread", &o->evidence_spread)
+          .Range(0, 1)
+          .Help("a location's evidence also counts x this per location for its band (0 = off)")
+          .Flag("sequence-evidence-spread"),
       Setting("sequence", "min_confidence", &o->min_confidence)
           .Range(0, 1)
           .Help("session answers below this are UNKNOWN")

@@ -50,9 +50,29 @@ SequenceFilter::SequenceFilter(const Map& map, const SequenceOptions& options)
       tolerance_(map.options.tolerance),
       temperature_(map.options.confidence_temperature),
       options_(options) {
-  const int band = options.max_forward < 0 || options.max_backward < 0 ? MotionBand(map) : 0;
-  forward_ = options.max_forward >= 0 ? options.max_forward : band;
-  backward_ = options.max_backward >= 0 ? options.max_backward : band;
+  const int band = MotionBand(map);
+  forward_ = options.max_forward >= 0 ? options.max_forward : 2 * band;
+  backward_ = options.max_backward >= 0 ? options.max_backward : 2 * band;
+  if (options.evidence_spread > 0) {
+    spread_.push_back(1.0);
+    for (int d = 1; d <= band; ++d) spread_.push_back(spread_.back() * options.evidence_spread);
+  }
+  // Each speed's step: its locations split between the two whole steps around it (1.5:
+  // half 1, half 2), each give or take one location (1/6, 4/6, 1/6).
+  constexpr double kJitter[3] = {1.0 / 6, 4.0 / 6, 1.0 / 6};
+  steps_.resize(static_cast<size_t>(num_speeds()));
+  for (int v = 0; v < num_speeds(); ++v) {
+    const int halves = v - kSpeedsPerLocation * backward_;           // speed in half locations
+    const int low = halves >= 0 ? halves / 2 : -((1 - halves) / 2);  // floor(halves / 2)
+    const bool half = halves - 2 * low != 0;
+    for (const auto& [whole, share] :
+         {std::pair<int, double>{low, half ? 0.5 : 1.0}, {low + 1, half ? 0.5 : 0.0}}) {
+      if (share == 0) continue;
+      for (int j = -1; j <= 1; ++j) {
+        steps_[v].push_back({whole + j, static_cast<float>(share * kJitter[j + 1])});
+      }
+    }
+  }
 }
 
 int SequenceFilter::ReflectAtEnds(int target, int n, bool* turned) {
@@ -68,46 +88,79 @@ int SequenceFilter::ReflectAtEnds(int target, int n, bool* turned) {
 
 void SequenceFilter::Predict(std::vector<float>* belief) const {
   const int n = num_locations_;
+  const int speeds = num_speeds();
   std::vector<float>& b = *belief;
-  const double in_mass = std::accumulate(b.begin(), b.begin() + 2 * n, 0.0);
-  const double off = b[2 * n];
-  const double turn = options_.reverse;
-  // Each direction of travel after a possible turn, then its step: 0..forward_ locations
-  // up the route, or 0..backward_ down it, each equally likely. A step past either end of
-  // the route turns the robot round there and it walks the rest of the step back (ReflectAt
-  // Ends): kept at the end instead, every step past it would pile up on the end location
-  // and a robot standing near the start of the route would be answered at its first frame.
-  std::vector<float> up(static_cast<size_t>(n), 0.0f), down(static_cast<size_t>(n), 0.0f);
-  const auto land = [&](int target, bool upwards, float w) {
-    bool turned = false;
-    const int at = ReflectAtEnds(target, n, &turned);
-    (upwards != turned ? up : down)[static_cast<size_t>(at)] += w;
-  };
-  const double up_step = 1.0 / (forward_ + 1), down_step = 1.0 / (backward_ + 1);
-  for (int i = 0; i < n; ++i) {
-    const double going_up = (1 - turn) * b[i] + turn * b[n + i];
-    const double going_down = (1 - turn) * b[n + i] + turn * b[i];
-    if (going_up != 0) {
-      const auto w = static_cast<float>(going_up * up_step);
-      for (int d = 0; d <= forward_; ++d) land(i + d, true, w);
-    }
-    if (going_down != 0) {
-      const auto w = static_cast<float>(going_down * down_step);
-      for (int d = 0; d <= backward_; ++d) land(i - d, false, w);
+  const size_t in_size = static_cast<size_t>(speeds) * n;
+  const double in_mass = std::accumulate(b.begin(), b.begin() + in_size, 0.0);
+  const double off = b[in_size];
+  // The speed first: kept with probability 1 - speed_change, else half a location per frame
+  // faster or slower (at the fastest or the slowest, the one way there is).
+  const double change = options_.speed_change;
+  std::vector<float> sped(in_size, 0.0f);
+  for (int v = 0; v < speeds; ++v) {
+    const bool slower = v > 0, faster = v + 1 < speeds;
+    const double each = (slower && faster) ? change / 2 : change;
+    const float* from = b.data() + static_cast<size_t>(v) * n;
+    float* stay = sped.data() + static_cast<size_t>(v) * n;
+    float* down = slower ? sped.data() + static_cast<size_t>(v - 1) * n : nullptr;
+    float* up = faster ? sped.data() + static_cast<size_t>(v + 1) * n : nullptr;
+    const double keep = (slower || faster) ? 1 - change : 1;
+    for (int l = 0; l < n; ++l) {
+      stay[l] += static_cast<float>(keep * from[l]);
+      if (down != nullptr) down[l] += static_cast<float>(each * from[l]);
+      if (up != nullptr) up[l] += static_cast<float>(each * from[l]);
     }
   }
-  // The kidnap floor and the way back onto the route: any location, either direction.
-  const double jump_each = options_.jump * in_mass / (2 * n);
-  const double enter_each = options_.enter * off / (2 * n);
-  const auto arrive = [&](float moved) {
-    return static_cast<float>((1 - options_.leave) * ((1 - options_.jump) * moved + jump_each) +
+  // Then the step (steps_: the speed's locations, give or take one). A step
+  // past either end of the route turns the robot round there: it walks back the rest of
+  // the step at the opposite speed (ReflectAtEnds; kept at the end instead, every step past
+  // it would pile up on the end location).
+  std::vector<float> moved(in_size, 0.0f);
+  const int slowest = kSpeedsPerLocation * backward_, fastest = kSpeedsPerLocation * forward_;
+  for (int v = 0; v < speeds; ++v) {
+    const int opposite = std::clamp(slowest - v, -slowest, fastest) + slowest;
+    const float* from = sped.data() + static_cast<size_t>(v) * n;
+    float* to = moved.data() + static_cast<size_t>(v) * n;
+    for (const Step& step : steps_[v]) {
+      // Sources whose step stays on the route: one contiguous, vectorisable run.
+      const int first = std::clamp(-step.locations, 0, n),
+                last = std::clamp(n - step.locations, 0, n);
+      for (int l = first; l < last; ++l) to[l + step.locations] += step.weight * from[l];
+      // The rest step past an end and turn round there.
+      const auto turn_round = [&](int l) {
+        bool turned = false;
+        const int at = ReflectAtEnds(l + step.locations, n, &turned);
+        moved[static_cast<size_t>(turned ? opposite : v) * n + at] += step.weight * from[l];
+      };
+      for (int l = 0; l < first; ++l) turn_round(l);
+      for (int l = std::max(last, first); l < n; ++l) turn_round(l);
+    }
+  }
+  // The kidnap floor and the way back onto the route: any location, any speed.
+  const double jump_each = options_.jump * in_mass / static_cast<double>(in_size);
+  const double enter_each = options_.enter * off / static_cast<double>(in_size);
+  for (size_t i = 0; i < in_size; ++i) {
+    b[i] = static_cast<float>((1 - options_.leave) * ((1 - options_.jump) * moved[i] + jump_each) +
                               enter_each);
-  };
-  for (int j = 0; j < n; ++j) {
-    b[j] = arrive(up[j]);
-    b[n + j] = arrive(down[j]);
   }
-  b[2 * n] = static_cast<float>(options_.leave * in_mass + (1 - options_.enter) * off);
+  b[in_size] = static_cast<float>(options_.leave * in_mass + (1 - options_.enter) * off);
+}
+
+void SequenceFilter::Spread(std::vector<double>* log_lik) const {
+  const int n = num_locations_;
+  std::vector<double>& ll = *log_lik;
+  const double top = *std::max_element(ll.begin(), ll.begin() + n);
+  std::vector<double> lik(static_cast<size_t>(n));
+  for (int l = 0; l < n; ++l) lik[l] = std::exp(ll[l] - top);  // <= 1, the best 1
+  const int radius = static_cast<int>(spread_.size()) - 1;
+  for (int l = 0; l < n; ++l) {
+    double sum = lik[l];
+    for (int d = 1; d <= radius; ++d) {
+      if (l - d >= 0) sum += spread_[d] * lik[l - d];
+      if (l + d < n) sum += spread_[d] * lik[l + d];
+    }
+    ll[l] = std::log(sum) + top;  // sum >= lik[l] > 0 unless it underflowed: log(0) = -inf
+  }
 }
 
 void SequenceFilter::Observe(const FrameEvidence& evidence, std::vector<float>* belief) const {
@@ -121,7 +174,7 @@ void SequenceFilter::Observe(const FrameEvidence& evidence, std::vector<float>* 
   const double gamma = options_.evidence_weight;
   // log P(frame | l) up to a constant shared by every state: the single-frame posterior
   // over a uniform prior (even odds of in-map, 1/N per location) is a likelihood ratio.
-  // The frame says nothing about the direction of travel: both halves get the same.
+  // The frame says nothing about the robot's speed: every speed gets the same.
   std::vector<double> log_lik(static_cast<size_t>(n) + 1, std::log(p_in));
   if (has_scores) {
     const float top = *std::max_element(s.begin(), s.end());
@@ -129,39 +182,43 @@ void SequenceFilter::Observe(const FrameEvidence& evidence, std::vector<float>* 
     for (int l = 0; l < n; ++l) z += std::exp((s[l] - top) / temperature_);
     const double offset = std::log(p_in) + std::log(static_cast<double>(n)) - std::log(z);
     for (int l = 0; l < n; ++l) log_lik[l] = (s[l] - top) / temperature_ + offset;
+    if (!spread_.empty()) Spread(&log_lik);
   }
   log_lik[n] = std::log(1 - p_in);
   const double top = *std::max_element(log_lik.begin(), log_lik.end());
   std::vector<float>& b = *belief;
+  const int speeds = num_speeds();
   for (int l = 0; l < n; ++l) {
     const auto w = static_cast<float>(std::exp(gamma * (log_lik[l] - top)));
-    b[l] *= w;
-    b[n + l] *= w;
+    for (int v = 0; v < speeds; ++v) b[static_cast<size_t>(v) * n + l] *= w;
   }
-  b[2 * n] *= static_cast<float>(std::exp(gamma * (log_lik[n] - top)));
+  b[static_cast<size_t>(speeds) * n] *= static_cast<float>(std::exp(gamma * (log_lik[n] - top)));
   Normalise(belief);
 }
 
 SequenceAnswer SequenceFilter::Answer(const std::vector<float>& belief, uint32_t frames) const {
   const int n = num_locations_;
-  std::vector<double> at(static_cast<size_t>(n));  // either direction of travel
-  for (int l = 0; l < n; ++l) at[l] = static_cast<double>(belief[l]) + belief[n + l];
+  const int speeds = num_speeds();
+  std::vector<double> at(static_cast<size_t>(n), 0.0);  // at any speed
+  for (int v = 0; v < speeds; ++v) {
+    for (int l = 0; l < n; ++l) at[l] += belief[static_cast<size_t>(v) * n + l];
+  }
   SequenceAnswer a;
   a.location = static_cast<int>(std::max_element(at.begin(), at.end()) - at.begin());
   const int low = std::max(0, a.location - tolerance_);
   const int high = std::min(n - 1, a.location + tolerance_);
   a.probability = std::accumulate(at.begin() + low, at.begin() + high + 1, 0.0);
-  a.off_map = belief[2 * n];
+  a.off_map = belief[static_cast<size_t>(speeds) * n];
   a.frames = frames;
   a.decision = a.probability >= options_.min_confidence ? Decision::kLocalised : Decision::kUnknown;
   return a;
 }
 
 SequenceAnswer SequenceFilter::Update(const FrameEvidence& evidence, SequenceState* state) const {
-  const size_t size = StateSize(num_locations_);
+  const size_t size = state_size();
   if (state->belief.size() != size) {
     const double off = StationaryOffMap(options_);
-    state->belief.assign(size, static_cast<float>((1 - off) / (2 * num_locations_)));
+    state->belief.assign(size, static_cast<float>((1 - off) / static_cast<double>(size - 1)));
     state->belief.back() = static_cast<float>(off);
     state->frames = 0;
   } else {

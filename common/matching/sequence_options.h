@@ -8,15 +8,14 @@
 namespace sceneloc {
 
 struct SequenceOptions {
-  // Motion band in tour locations per frame: how far the robot may move between two
-  // frames while travelling up the route (max_forward) and down it (max_backward). -1 =
-  // from the map (SequenceFilter::MotionBand): the median number of tour frames a landmark
-  // is seen in, i.e. how many frames apart views still overlap.
+  // The fastest speed in tour locations per frame up the route (max_forward) and down it
+  // (max_backward). -1 = from the map: twice SequenceFilter::MotionBand, the median number
+  // of tour frames a landmark is seen in (4 on every development map).
   int max_forward = -1;
   int max_backward = -1;
-  // Per frame, the probability that the robot turns round (starts travelling the other
-  // way along the route, e.g. backs up): robots mostly keep their direction.
-  double reverse = 0.01;
+  // Per frame, the probability that the robot's speed changes by half a location per frame
+  // (faster or slower; through 0 it turns round): robots keep their pace and direction.
+  double speed_change = 0.1;
   // The kidnap floor: per frame, this share of the in-map mass is spread over every
   // location, so a robot carried elsewhere is found again within a few frames.
   double jump = 0.03;
@@ -28,6 +27,12 @@ struct SequenceOptions {
   // likelihood is read at the map's confidence temperature T, so what matters is
   // evidence_weight / T: 0.45 / 0.28 keeps the 0.5 / 0.31 the filter was measured with.
   double evidence_weight = 0.45;
+  // A frame's evidence places the robot only to within the tour frames whose views overlap
+  // the one it matched: each location's likelihood also counts for the locations within
+  // the map's band of it (SequenceFilter::MotionBand), multiplied by this per location of
+  // distance (0.5: 1/2 for a neighbour, 1/4 two away). 0 = each location's own evidence
+  // only. Measured: docs/results.md "Sessions: evidence spread over overlapping views".
+  double evidence_spread = 0.5;
   // A filtered answer whose mass within the tolerance is below this is UNKNOWN.
   double min_confidence = 0.8;
 

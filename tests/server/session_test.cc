@@ -33,6 +33,14 @@ v1::Request CarriedFrame(int i, const std::string& session, const std::string& s
   return request;
 }
 
+// The size of a session's state on the test map with the server's default filter settings.
+size_t TestStateSize() {
+  auto map = LoadMap(test::TestMapPath());
+  EXPECT_TRUE(map.ok());
+  if (!map.ok()) return 0;
+  return SequenceFilter(*map, SequenceOptions()).state_size();
+}
+
 class SessionTest : public ::testing::Test {
  protected:
   void Start(const ServerOptions& options) {
@@ -204,8 +212,7 @@ TEST_F(SessionTest, StatsCountSessions) {
   auto stats = client_->Stats();
   ASSERT_TRUE(stats.ok());
   EXPECT_EQ(stats->sessions(), 5u);
-  EXPECT_GE(stats->session_memory_bytes(),
-            5u * SequenceFilter::StateSize(kTestTourLocations) * sizeof(float));
+  EXPECT_GE(stats->session_memory_bytes(), 5u * TestStateSize() * sizeof(float));
 }
 
 // The fleet case: a session's frames answered by two server processes serving the same map
@@ -230,7 +237,7 @@ TEST_F(SessionTest, AnotherServerContinuesFromTheCarriedState) {
     ASSERT_TRUE(reply.ok());
     state = reply->session().state();
   }
-  EXPECT_EQ(state.size(), 28u + 4 * SequenceFilter::StateSize(kTestTourLocations));
+  EXPECT_EQ(state.size(), 32u + 4 * TestStateSize());
   auto reply = (*other)->Call(CarriedFrame(6, "walk-2", state));
   ASSERT_TRUE(reply.ok());
   ASSERT_EQ(reply->status(), v1::OK) << reply->error();

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <vector>
 
 #include "common/map/crc32.h"
 
@@ -11,21 +12,21 @@ namespace sceneloc {
 namespace {
 
 TokenOwner Owner(const std::string& session = "robot-1", uint32_t checksum = 0xabcdef01u) {
-  return {"robot-key", session, checksum, 4};
+  return {"robot-key", session, checksum, 4, 2};
 }
 
 SequenceState State() {
   SequenceState s;
-  // 4 locations travelling up the route, the same 4 travelling down it, off-map.
+  // 4 locations at the first of two speeds, the same 4 at the second, off-map.
   s.belief = {0.05f, 0.3f, 0.1f, 0.025f, 0.05f, 0.3f, 0.1f, 0.025f, 0.05f};
   s.frames = 17;
   return s;
 }
 
-// A state survives the round trip exactly; its size is 28 + 4 (2N + 1) bytes.
+// A state survives the round trip exactly; its size is 32 + 4 (S N + 1) bytes.
 TEST(SessionTokenTest, RoundTrip) {
   const std::string bytes = SerializeSessionToken(State(), Owner());
-  EXPECT_EQ(bytes.size(), 28u + 4 * 9);
+  EXPECT_EQ(bytes.size(), 32u + 4 * 9);
   SequenceState parsed;
   auto fit = ParseSessionToken(bytes, Owner(), &parsed);
   ASSERT_TRUE(fit.ok()) << fit.status().ToString();
@@ -35,28 +36,33 @@ TEST(SessionTokenTest, RoundTrip) {
   for (size_t i = 0; i < 9; ++i) EXPECT_NEAR(parsed.belief[i], State().belief[i], 1e-6);
 }
 
-// A token of the format before the direction of travel (N + 1 values, "SLS1") that a
-// client kept across the server's upgrade starts its session again: not an error. The same
-// bytes damaged are still refused.
-TEST(SessionTokenTest, EarlierFormatStartsAgain) {
-  std::string old("SLS1");
-  const auto put = [&old](const void* p, size_t n) { old.append(static_cast<const char*>(p), n); };
-  const uint32_t header[3] = {0xabcdef01u, 4, 17};
-  const uint64_t session_hash = 0;
-  const float belief[5] = {0.1f, 0.6f, 0.2f, 0.05f, 0.05f};
-  put(header, sizeof(header));
-  put(&session_hash, sizeof(session_hash));
-  put(belief, sizeof(belief));
-  const uint32_t crc = Crc32(old.data(), old.size());
-  put(&crc, sizeof(crc));
-  SequenceState parsed;
-  parsed.frames = 99;
-  const auto fit = ParseSessionToken(old, Owner(), &parsed);
-  ASSERT_TRUE(fit.ok()) << fit.status().ToString();
-  EXPECT_EQ(*fit, TokenFit::kOtherMap);
-  EXPECT_EQ(parsed.frames, 99u);
-  old[10] = static_cast<char>(old[10] ^ 0x20);
-  EXPECT_EQ(ParseSessionToken(old, Owner(), &parsed).status().code(), StatusCode::kInvalidArgument);
+// Tokens of the formats before the speed was state ("SLS1": N + 1 values; "SLS2": the
+// direction of travel, 2N + 1) that a client kept across the server's upgrade start their
+// session again: not an error. The same bytes damaged are still refused.
+TEST(SessionTokenTest, EarlierFormatsStartAgain) {
+  for (const int values : {5, 9}) {
+    std::string old(values == 5 ? "SLS1" : "SLS2");
+    const auto put = [&old](const void* p, size_t n) {
+      old.append(static_cast<const char*>(p), n);
+    };
+    const uint32_t header[3] = {0xabcdef01u, 4, 17};
+    const uint64_t session_hash = 0;
+    const std::vector<float> belief(static_cast<size_t>(values), 1.0f / values);
+    put(header, sizeof(header));
+    put(&session_hash, sizeof(session_hash));
+    put(belief.data(), belief.size() * sizeof(float));
+    const uint32_t crc = Crc32(old.data(), old.size());
+    put(&crc, sizeof(crc));
+    SequenceState parsed;
+    parsed.frames = 99;
+    const auto fit = ParseSessionToken(old, Owner(), &parsed);
+    ASSERT_TRUE(fit.ok()) << fit.status().ToString();
+    EXPECT_EQ(*fit, TokenFit::kOtherMap);
+    EXPECT_EQ(parsed.frames, 99u);
+    old[10] = static_cast<char>(old[10] ^ 0x20);
+    EXPECT_EQ(ParseSessionToken(old, Owner(), &parsed).status().code(),
+              StatusCode::kInvalidArgument);
+  }
 }
 
 // Any flipped byte, a truncation or no header at all: INVALID_ARGUMENT, state untouched.
@@ -116,6 +122,26 @@ TEST(SessionTokenTest, OwnerChecked) {
   auto resized = ParseSessionToken(bytes, bigger, &parsed);
   ASSERT_TRUE(resized.ok());
   EXPECT_EQ(*resized, TokenFit::kOtherMap);
+  // A server whose filter has other speeds (other settings) starts the session again.
+  TokenOwner faster = Owner();
+  faster.num_speeds = 3;
+  auto other_speeds = ParseSessionToken(bytes, faster, &parsed);
+  ASSERT_TRUE(other_speeds.ok());
+  EXPECT_EQ(*other_speeds, TokenFit::kOtherMap);
+}
+
+// Location and speed counts that multiply past the token's size (forged, with a valid
+// checksum) are refused before anything is allocated.
+TEST(SessionTokenTest, CountsBeyondTheTokenAreRefused) {
+  std::string bytes = SerializeSessionToken(State(), Owner());
+  const uint32_t huge = 0x40000001u;
+  std::memcpy(&bytes[8], &huge, 4);   // locations
+  std::memcpy(&bytes[12], &huge, 4);  // speeds: the product wraps in 32 bits
+  const uint32_t crc = Crc32(bytes.data(), bytes.size() - 4);
+  std::memcpy(&bytes[bytes.size() - 4], &crc, 4);
+  SequenceState parsed;
+  EXPECT_EQ(ParseSessionToken(bytes, Owner(), &parsed).status().code(),
+            StatusCode::kInvalidArgument);
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import socket
+import struct
 import time
 from pathlib import Path
 from typing import Callable
@@ -19,9 +20,13 @@ QUERY_IMAGE = "Image003.jpg"
 Connect = Callable[[ServerProcess], sceneloc.Client]
 
 
-def session_state_bytes(num_locations: int) -> int:
-    """The size of a session's state (server/session_token.h): 28 + 4 (2N + 1) bytes."""
-    return 28 + 4 * (2 * num_locations + 1)
+def check_session_state(state: bytes, num_locations: int) -> None:
+    """A session's state as server/session_token.h lays it out: "SLS3", the map's checksum,
+    N locations, S speeds, ..., 32 + 4 (S N + 1) bytes."""
+    assert state[:4] == b"SLS3"
+    locations, speeds = struct.unpack_from("<II", state, 8)
+    assert locations == num_locations and speeds >= 1
+    assert len(state) == 32 + 4 * (speeds * num_locations + 1)
 
 
 # A JPEG of a tour image is localised at its own location, LOCALISED, with everything the
@@ -132,7 +137,7 @@ def test_session_across_three_frames(
             sceneloc.SessionStart.NEW if frame == 1 else sceneloc.SessionStart.CONTINUED
         )
         assert reply.session.location == QUERY_LOCATION and reply.session.localised
-        assert len(reply.session.state) == session_state_bytes(num_locations)
+        check_session_state(reply.session.state, num_locations)
         assert client.session_state(map_name, "three-frames") == reply.session.state
         states.append(reply.session.state)
     assert len(set(states)) == 3
