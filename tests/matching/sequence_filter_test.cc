@@ -221,7 +221,7 @@ TEST_F(SequenceFilterTest, KidnappedRobotIsFoundAgain) {
   EXPECT_LE(found_after, 5);
 }
 
-// Frames without evidence (no features): the session predicts along its motion band, keeps
+// Frames without evidence (no features): the session predicts at its speed, keeps
 // its place, counts the frames, and becomes less sure.
 TEST_F(SequenceFilterTest, FramesWithoutEvidencePredictOnly) {
   const SequenceFilter filter = Filter();
@@ -285,7 +285,8 @@ TEST_F(SequenceFilterTest, BeliefStaysNormalised) {
   EXPECT_NEAR(total, 1.0, 1e-4);
 }
 
-// The motion band the map suggests: the median track length (at least 2), either way.
+// The band the map suggests: the median track length (at least 2); the fastest speed either
+// way defaults to twice it.
 TEST_F(SequenceFilterTest, MotionBandFromTheMap) {
   const int band = SequenceFilter::MotionBand(map_);
   EXPECT_GE(band, 2);

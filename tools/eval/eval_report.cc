@@ -143,7 +143,8 @@ void PrintNegativesAndSession(const EvalReport& r) {
     const SequenceFilter filter(*r.map, r.options->sequence);
     std::printf(
         "session: the queries in %s as one session (sceneloc row; single = the same frames one "
-        "by one); motion band +%d up the route, -%d down it, filter %.3f ms per frame\n",
+        "by one); speeds up to %d locations per frame up the route, %d down it, filter %.3f ms "
+        "per frame\n",
         (std::string(session->reversed ? "reverse file order" : "file order") +
          (session->kidnap > 1 ? ", in " + std::to_string(session->kidnap) + " shuffled segments"
                               : ""))
