@@ -85,7 +85,6 @@ StatusOr<TokenFit> ParseSessionToken(const std::string& bytes, const TokenOwner&
       SequenceFilter::StateSize(static_cast<int>(locations), static_cast<int>(speeds)) != floats) {
     return corrupt("size does not match its location and speed counts");
   }
-  const size_t values = floats;
   if (session != SessionHash(owner)) {
     return InvalidArgument("session_state belongs to another session (another name or key)");
   }
@@ -96,7 +95,7 @@ StatusOr<TokenFit> ParseSessionToken(const std::string& bytes, const TokenOwner&
   }
   SequenceState parsed;
   parsed.frames = frames;
-  parsed.belief.resize(values);
+  parsed.belief.resize(floats);
   double total = 0;
   for (float& b : parsed.belief) {
     b = Get<float>(bytes, &at);
