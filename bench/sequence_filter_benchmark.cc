@@ -14,6 +14,7 @@
 
 #include "common/matching/sequence_filter.h"
 #include "server/session_store.h"
+#include "server/session_token.h"
 
 namespace sceneloc {
 namespace {
@@ -55,7 +56,11 @@ void BM_FilterUpdate(benchmark::State& state) {
     benchmark::DoNotOptimize(a);
   }
   state.SetComplexityN(n);
-  state.counters["state_bytes"] = static_cast<double>(session.belief.size() * sizeof(float));
+  state.counters["state_bytes"] = static_cast<double>(session.MemoryBytes());
+  state.counters["token_bytes"] =
+      static_cast<double>(SerializeSessionToken(session, {"key", "robot", 0, n, filter.num_speeds(),
+                                                          filter.num_tracked()})
+                              .size());
 }
 BENCHMARK(BM_FilterUpdate)->Arg(200)->Arg(1000)->Arg(3000)->Arg(10000)->Complexity(benchmark::oN);
 

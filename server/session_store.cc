@@ -16,7 +16,7 @@ std::string Key(const std::string& client, const std::string& map, const std::st
   return key;
 }
 
-size_t BeliefBytes(const SequenceState& state) { return state.belief.capacity() * sizeof(float); }
+size_t BeliefBytes(const SequenceState& state) { return state.MemoryBytes(); }
 
 }  // namespace
 
@@ -34,8 +34,8 @@ SettingTable SessionSettings(SessionOptions* o) {
       Setting("sessions", "max_state_bytes", &o->max_state_bytes)
           .Range(1, 1e15)
           .Unit("bytes")
-          .Help("filter states together at most (two floats per tour location each); past it "
-                "the least recently used are dropped")
+          .Help("filter states together at most (a float per tour location each, and the "
+                "speeds of the tracked ones); past it the least recently used are dropped")
           .Flag("max-session-bytes"),
   };
 }

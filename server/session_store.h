@@ -38,7 +38,8 @@ struct SessionOptions {
   // A session unused this long is dropped, seconds (> 0).
   double idle_timeout_s = 600;
   // The sessions' filter states together at most, bytes: a state holds a float per tour
-  // location, so 10,000 sessions on a 5,000-location map would be 200 MB. Past it the
+  // location and the speeds of the tracked ones (sequence_filter.h), so 10,000 sessions on
+  // a 5,000-location map would be 245 MB. Past it the
   // least recently used are dropped (the one just updated is always kept). Their clients
   // still continue from the state their replies carry.
   int64_t max_state_bytes = int64_t{64} << 20;

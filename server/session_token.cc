@@ -8,11 +8,21 @@
 namespace sceneloc {
 namespace {
 
-constexpr char kMagic[4] = {'S', 'L', 'S', '3'};
-// The formats before the speed was state ("SLS1": N + 1 values; "SLS2": the direction of
-// travel, 2N + 1): well-formed ones start the session again, as a token of another map does.
-constexpr char kOldMagics[2][4] = {{'S', 'L', 'S', '1'}, {'S', 'L', 'S', '2'}};
-constexpr size_t kHeaderBytes = 4 + 4 + 4 + 4 + 4 + 8;
+constexpr char kMagic[4] = {'S', 'L', 'S', '4'};
+// The earlier formats ("SLS1": N + 1 values; "SLS2": the direction of travel, 2N + 1;
+// "SLS3": every location's speeds, S N + 1): well-formed ones start the session again, as
+// a token of another map does.
+constexpr char kOldMagics[3][4] = {
+    {'S', 'L', 'S', '1'}, {'S', 'L', 'S', '2'}, {'S', 'L', 'S', '3'}};
+constexpr size_t kHeaderBytes = 4 + 4 + 4 + 4 + 4 + 4 + 8;
+
+bool IsOldFormat(const std::string& bytes) {
+  if (bytes.size() < 4) return false;
+  for (const auto& magic : kOldMagics) {
+    if (std::memcmp(bytes.data(), magic, 4) == 0) return true;
+  }
+  return false;
+}
 
 uint64_t SessionHash(const TokenOwner& owner) {
   uint64_t h = 14695981039346656037ull;  // FNV-1a, 64 bits
@@ -44,14 +54,18 @@ T Get(const std::string& in, size_t* at) {
 
 std::string SerializeSessionToken(const SequenceState& state, const TokenOwner& owner) {
   std::string out;
-  out.reserve(kHeaderBytes + 4 * state.belief.size() + 4);
+  out.reserve(kHeaderBytes +
+              4 * (state.location.size() + state.tracked.size() + state.speeds.size()) + 4);
   out.append(kMagic, sizeof(kMagic));
   Put<uint32_t>(&out, owner.map_checksum);
   Put<uint32_t>(&out, static_cast<uint32_t>(owner.num_locations));
   Put<uint32_t>(&out, static_cast<uint32_t>(owner.num_speeds));
+  Put<uint32_t>(&out, static_cast<uint32_t>(state.tracked.size()));
   Put<uint32_t>(&out, state.frames);
   Put<uint64_t>(&out, SessionHash(owner));
-  for (const float b : state.belief) Put<float>(&out, b);
+  for (const float p : state.location) Put<float>(&out, p);
+  for (const uint32_t l : state.tracked) Put<uint32_t>(&out, l);
+  for (const float p : state.speeds) Put<float>(&out, p);
   Put<uint32_t>(&out, Crc32(out.data(), out.size()));
   return out;
 }
@@ -62,8 +76,7 @@ StatusOr<TokenFit> ParseSessionToken(const std::string& bytes, const TokenOwner&
     return InvalidArgument("session_state is not a state this server made (" + why +
                            "): send the `state` of the session's last reply, or none");
   };
-  const bool old_format = bytes.size() >= 4 && (std::memcmp(bytes.data(), kOldMagics[0], 4) == 0 ||
-                                                std::memcmp(bytes.data(), kOldMagics[1], 4) == 0);
+  const bool old_format = IsOldFormat(bytes);
   if (bytes.size() < kHeaderBytes + 4 ||
       (std::memcmp(bytes.data(), kMagic, 4) != 0 && !old_format)) {
     return corrupt("no session state header");
@@ -76,34 +89,55 @@ StatusOr<TokenFit> ParseSessionToken(const std::string& bytes, const TokenOwner&
   const uint32_t checksum = Get<uint32_t>(bytes, &at);
   const uint32_t locations = Get<uint32_t>(bytes, &at);
   const uint32_t speeds = Get<uint32_t>(bytes, &at);
+  const uint32_t tracked = Get<uint32_t>(bytes, &at);
   const uint32_t frames = Get<uint32_t>(bytes, &at);
   const uint64_t session = Get<uint64_t>(bytes, &at);
-  // Both counts are bounded by the token's own size before they are multiplied.
-  const size_t floats = (body - kHeaderBytes) / 4;
-  if ((body - kHeaderBytes) % 4 != 0 || locations == 0 || speeds == 0 || locations > floats ||
-      speeds > floats ||
-      SequenceFilter::StateSize(static_cast<int>(locations), static_cast<int>(speeds)) != floats) {
-    return corrupt("size does not match its location and speed counts");
+  // Every count is bounded by the token's own size before they are multiplied.
+  const size_t values = (body - kHeaderBytes) / 4;
+  if ((body - kHeaderBytes) % 4 != 0 || locations == 0 || speeds == 0 || locations > values ||
+      speeds > values || tracked > locations ||
+      SequenceFilter::StateValues(locations, speeds, tracked) != values) {
+    return corrupt("size does not match its location, speed and tracked counts");
   }
   if (session != SessionHash(owner)) {
     return InvalidArgument("session_state belongs to another session (another name or key)");
   }
-  // Another map, map version, or filter settings (another number of speeds): start again.
+  // Another map, map version, or filter settings (other speeds, more tracked locations):
+  // start again.
   if (checksum != owner.map_checksum || static_cast<int>(locations) != owner.num_locations ||
-      static_cast<int>(speeds) != owner.num_speeds) {
+      static_cast<int>(speeds) != owner.num_speeds ||
+      static_cast<int>(tracked) > owner.max_tracked) {
     return TokenFit::kOtherMap;
   }
   SequenceState parsed;
   parsed.frames = frames;
-  parsed.belief.resize(floats);
-  double total = 0;
-  for (float& b : parsed.belief) {
-    b = Get<float>(bytes, &at);
-    if (!std::isfinite(b) || b < 0) return corrupt("a belief value is negative or not finite");
-    total += b;
+  // Non-negative finite values with a positive sum, scaled to sum to 1.
+  const auto read_distribution = [&](float* out, size_t count) -> Status {
+    double total = 0;
+    for (size_t i = 0; i < count; ++i) {
+      out[i] = Get<float>(bytes, &at);
+      if (!std::isfinite(out[i]) || out[i] < 0) {
+        return corrupt("a belief value is negative or not finite");
+      }
+      total += out[i];
+    }
+    if (!(total > 0)) return corrupt("a distribution in it sums to zero");
+    for (size_t i = 0; i < count; ++i) out[i] = static_cast<float>(out[i] / total);
+    return Status::Ok();
+  };
+  parsed.location.resize(locations + size_t{1});
+  SCENELOC_RETURN_IF_ERROR(read_distribution(parsed.location.data(), parsed.location.size()));
+  parsed.tracked.resize(tracked);
+  for (size_t i = 0; i < tracked; ++i) {
+    parsed.tracked[i] = Get<uint32_t>(bytes, &at);
+    if (parsed.tracked[i] >= locations || (i > 0 && parsed.tracked[i] <= parsed.tracked[i - 1])) {
+      return corrupt("its tracked locations are not ascending locations of the map");
+    }
   }
-  if (!(total > 0)) return corrupt("the belief sums to zero");
-  for (float& b : parsed.belief) b = static_cast<float>(b / total);
+  parsed.speeds.resize((tracked + size_t{1}) * speeds);
+  for (size_t row = 0; row <= tracked; ++row) {
+    SCENELOC_RETURN_IF_ERROR(read_distribution(parsed.speeds.data() + row * speeds, speeds));
+  }
   *state = std::move(parsed);
   return TokenFit::kFits;
 }

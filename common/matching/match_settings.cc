@@ -111,6 +111,10 @@ SettingTable SequenceSettings(SequenceOptions* o) {
           .Range(0, 1)
           .Help("session answers below this are UNKNOWN")
           .Flag("sequence-min-confidence"),
+      Setting("sequence", "tracked_locations", &o->tracked_locations)
+          .Range(0, 1000000)
+          .Help("locations whose speeds a session keeps; the rest share one distribution")
+          .Flag("sequence-tracked-locations"),
   };
 }
 

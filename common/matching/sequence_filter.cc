@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <numeric>
 
 #include "common/matching/confidence.h"
@@ -53,6 +54,7 @@ SequenceFilter::SequenceFilter(const Map& map, const SequenceOptions& options)
   const int band = MotionBand(map);
   forward_ = options.max_forward >= 0 ? options.max_forward : 2 * band;
   backward_ = options.max_backward >= 0 ? options.max_backward : 2 * band;
+  tracked_ = std::min(options.tracked_locations, num_locations_);
   if (options.evidence_spread > 0) {
     spread_.push_back(1.0);
     for (int d = 1; d <= band; ++d) spread_.push_back(spread_.back() * options.evidence_spread);
@@ -196,37 +198,114 @@ void SequenceFilter::Observe(const FrameEvidence& evidence, std::vector<float>* 
   Normalise(belief);
 }
 
-SequenceAnswer SequenceFilter::Answer(const std::vector<float>& belief, uint32_t frames) const {
-  const int n = num_locations_;
-  const int speeds = num_speeds();
-  std::vector<double> at(static_cast<size_t>(n), 0.0);  // at any speed
+bool SequenceFilter::Fits(const SequenceState& state) const {
+  const size_t n = static_cast<size_t>(num_locations_), tracked = state.tracked.size();
+  if (state.location.size() != n + 1 || tracked > static_cast<size_t>(tracked_) ||
+      state.speeds.size() != (tracked + 1) * static_cast<size_t>(num_speeds())) {
+    return false;
+  }
+  for (size_t i = 0; i < tracked; ++i) {
+    if (state.tracked[i] >= n || (i > 0 && state.tracked[i] <= state.tracked[i - 1])) return false;
+  }
+  return true;
+}
+
+void SequenceFilter::Expand(const SequenceState& state, std::vector<float>* belief) const {
+  const int n = num_locations_, speeds = num_speeds();
+  belief->resize(static_cast<size_t>(speeds) * n + 1);
+  const float* shared = state.speeds.data() + state.tracked.size() * speeds;
+  size_t next = 0;  // the next tracked location's index in state.tracked
+  for (int l = 0; l < n; ++l) {
+    const bool tracked =
+        next < state.tracked.size() && state.tracked[next] == static_cast<uint32_t>(l);
+    const float* row = tracked ? state.speeds.data() + (next++) * speeds : shared;
+    for (int v = 0; v < speeds; ++v)
+      (*belief)[static_cast<size_t>(v) * n + l] = state.location[l] * row[v];
+  }
+  belief->back() = state.location[n];
+}
+
+void SequenceFilter::Compact(const std::vector<float>& belief, SequenceState* state) const {
+  const int n = num_locations_, speeds = num_speeds();
+  std::vector<double> at(static_cast<size_t>(n), 0.0);  // every speed together
   for (int v = 0; v < speeds; ++v) {
     for (int l = 0; l < n; ++l) at[l] += belief[static_cast<size_t>(v) * n + l];
   }
+  state->location.resize(static_cast<size_t>(n) + 1);
+  for (int l = 0; l < n; ++l) state->location[l] = static_cast<float>(at[l]);
+  state->location[n] = belief.back();
+  // The most probable locations keep their speeds; ties go to the lower location, so
+  // every process compacts a belief the same way.
+  std::vector<uint32_t> order(static_cast<size_t>(n));
+  std::iota(order.begin(), order.end(), 0u);
+  const auto more_probable = [&at](uint32_t a, uint32_t b) {
+    return at[a] > at[b] || (at[a] == at[b] && a < b);
+  };
+  if (tracked_ < n) {
+    std::nth_element(order.begin(), order.begin() + tracked_, order.end(), more_probable);
+    order.resize(static_cast<size_t>(tracked_));
+    std::sort(order.begin(), order.end());
+  }
+  state->tracked.assign(order.begin(), order.end());  // not order's capacity of n
+  state->speeds.assign((state->tracked.size() + 1) * speeds, 0.0f);
+  // A row of speeds from a location's column of the belief; uniform where it holds none.
+  const auto normalise_row = [speeds](float* row, double total) {
+    for (int v = 0; v < speeds; ++v) {
+      row[v] = total > 0 ? static_cast<float>(row[v] / total) : 1.0f / static_cast<float>(speeds);
+    }
+  };
+  std::vector<char> is_tracked(static_cast<size_t>(n), 0);
+  for (size_t i = 0; i < state->tracked.size(); ++i) {
+    const uint32_t l = state->tracked[i];
+    is_tracked[l] = 1;
+    float* row = state->speeds.data() + i * speeds;
+    for (int v = 0; v < speeds; ++v) row[v] = belief[static_cast<size_t>(v) * n + l];
+    normalise_row(row, at[l]);
+  }
+  // The others share the speeds of their mass together.
+  float* shared = state->speeds.data() + state->tracked.size() * speeds;
+  double rest = 0;
+  for (int v = 0; v < speeds; ++v) {
+    double sum = 0;
+    for (int l = 0; l < n; ++l) {
+      if (is_tracked[l] == 0) sum += belief[static_cast<size_t>(v) * n + l];
+    }
+    shared[v] = static_cast<float>(sum);
+    rest += sum;
+  }
+  normalise_row(shared, rest);
+}
+
+SequenceAnswer SequenceFilter::Answer(const SequenceState& state) const {
+  const int n = num_locations_;
+  const std::vector<float>& at = state.location;
   SequenceAnswer a;
-  a.location = static_cast<int>(std::max_element(at.begin(), at.end()) - at.begin());
+  a.location = static_cast<int>(std::max_element(at.begin(), at.begin() + n) - at.begin());
   const int low = std::max(0, a.location - tolerance_);
   const int high = std::min(n - 1, a.location + tolerance_);
   a.probability = std::accumulate(at.begin() + low, at.begin() + high + 1, 0.0);
-  a.off_map = belief[static_cast<size_t>(speeds) * n];
-  a.frames = frames;
+  a.off_map = at[n];
+  a.frames = state.frames;
   a.decision = a.probability >= options_.min_confidence ? Decision::kLocalised : Decision::kUnknown;
   return a;
 }
 
 SequenceAnswer SequenceFilter::Update(const FrameEvidence& evidence, SequenceState* state) const {
-  const size_t size = state_size();
-  if (state->belief.size() != size) {
+  std::vector<float> belief;  // the full belief for this frame (Expand)
+  if (!Fits(*state)) {
     const double off = StationaryOffMap(options_);
-    state->belief.assign(size, static_cast<float>((1 - off) / static_cast<double>(size - 1)));
-    state->belief.back() = static_cast<float>(off);
+    const size_t size = static_cast<size_t>(num_speeds()) * num_locations_ + 1;
+    belief.assign(size, static_cast<float>((1 - off) / static_cast<double>(size - 1)));
+    belief.back() = static_cast<float>(off);
     state->frames = 0;
   } else {
-    Predict(&state->belief);
+    Expand(*state, &belief);
+    Predict(&belief);
   }
-  Observe(evidence, &state->belief);
-  ++state->frames;
-  return Answer(state->belief, state->frames);
+  Observe(evidence, &belief);
+  Compact(belief, state);
+  if (state->frames < UINT32_MAX) ++state->frames;  // a carried count can be anything
+  return Answer(*state);
 }
 
 }  // namespace sceneloc

@@ -31,8 +31,12 @@
 // steps 0..2 each equally likely, with the direction of travel as state) assumed a pace
 // near one location per frame and lost robots at two or three (docs/results.md "Sessions:
 // the robot's speed as state").
-// Cost: O(S N) per frame and S N + 1 floats per session, S = 2 (max_forward + max_backward)
-// + 1 speeds (17 with the map's default band of 2).
+// Between frames a session keeps the belief of every location but the speeds of only the
+// most probable K (tracked_locations, 64): a location's belief is the product of where
+// the robot is and how fast it goes, and away from the few places it might be, the speeds
+// hardly differ (measured lossless from K = 16 on the dev sets).
+// Cost: O(S N) per frame, N + 1 + K + (K + 1) S values per session, S = 2 (max_forward +
+// max_backward) + 1 speeds (17 with the map's default band of 2).
 //
 // Thread-compatible: a SequenceState belongs to one session; the functions are pure.
 #pragma once
@@ -59,13 +63,24 @@ struct FrameEvidence {
 // The evidence of a localise result against `map` (its calibration's P(in the map)).
 FrameEvidence EvidenceOf(const LocaliseResult& result, const Map& map);
 
-// A session's belief. Empty (no frames yet) until the first Update.
+// A session's belief between frames, compact: belief(l, v) = location[l] P(v | l), with
+// P(v | l) kept for the `tracked` locations and one distribution shared by the others
+// (SequenceOptions::tracked_locations). Empty (no frames yet) until the first Update.
 struct SequenceState {
-  // N locations at the slowest speed (-max_backward), then N at each speed half a location
-  // per frame faster up to max_forward, then off-map; sums to 1. SequenceFilter::state_size()
-  // values.
-  std::vector<float> belief;
+  // The N locations' belief over every speed, then off-map; sums to 1.
+  std::vector<float> location;
+  // The locations whose speed distribution is kept, ascending: the most probable.
+  std::vector<uint32_t> tracked;
+  // P(speed | location), S values each (slowest, -max_backward, first), summing to 1: one
+  // row per tracked location in that order, then the row the others share.
+  std::vector<float> speeds;
   uint32_t frames = 0;  // frames filtered so far
+
+  // The heap the state holds, bytes.
+  size_t MemoryBytes() const {
+    return (location.capacity() + speeds.capacity()) * sizeof(float) +
+           tracked.capacity() * sizeof(uint32_t);
+  }
 };
 
 struct SequenceAnswer {
@@ -83,8 +98,12 @@ class SequenceFilter {
   SequenceFilter(const Map& map, const SequenceOptions& options);
 
   // Adds one frame to `state` (a fresh state starts from a uniform belief) and answers.
-  // A state of the wrong size (another map) is restarted, never read.
+  // A state that does not Fit (another map, other settings) is restarted, never read.
   SequenceAnswer Update(const FrameEvidence& evidence, SequenceState* state) const;
+
+  // Whether `state` is a state of this filter: its sizes, and tracked locations ascending
+  // on the map, at most tracked_locations of them. Values are not checked.
+  bool Fits(const SequenceState& state) const;
 
   // How many tour frames apart the map's views still overlap: the median number of tour
   // images its landmarks are seen in (at least 2). The evidence is spread over it, and the
@@ -96,25 +115,32 @@ class SequenceFilter {
   // stays uniform through the prediction. REQUIRES: n >= 1.
   static int ReflectAtEnds(int target, int n, bool* turned);
 
-  // The size of a session's belief over `num_locations` tour locations and `speeds` speeds.
-  static size_t StateSize(int num_locations, int speeds) {
-    return static_cast<size_t>(speeds) * static_cast<size_t>(num_locations) + 1;
+  // The values of a session's state (SequenceState) over `num_locations` tour locations,
+  // `speeds` speeds and `tracked` tracked locations.
+  static size_t StateValues(size_t num_locations, size_t speeds, size_t tracked) {
+    return num_locations + 1 + tracked + (tracked + 1) * speeds;
   }
   // Speeds run from -max_backward to max_forward in steps of half a location per frame.
   static constexpr int kSpeedsPerLocation = 2;
   int num_speeds() const { return kSpeedsPerLocation * (forward_ + backward_) + 1; }
-  size_t state_size() const { return StateSize(num_locations_, num_speeds()); }
+  // Locations whose speeds a state keeps: tracked_locations, at most every location.
+  int num_tracked() const { return tracked_; }
 
   int max_forward() const { return forward_; }
   int max_backward() const { return backward_; }
 
  private:
+  // The full belief, S N + 1 values (N locations at the slowest speed, then N at each
+  // faster one, then off-map), from a state that Fits, and back. Compact keeps the
+  // num_tracked() most probable locations' speeds (ties: the lower location).
+  void Expand(const SequenceState& state, std::vector<float>* belief) const;
+  void Compact(const std::vector<float>& belief, SequenceState* state) const;
   void Predict(std::vector<float>* belief) const;
   void Observe(const FrameEvidence& evidence, std::vector<float>* belief) const;
   // Adds to each location's likelihood its neighbours' within the band, weighted by
   // spread_ (log_lik holds N locations, then off-map, which is left alone).
   void Spread(std::vector<double>* log_lik) const;
-  SequenceAnswer Answer(const std::vector<float>& belief, uint32_t frames) const;
+  SequenceAnswer Answer(const SequenceState& state) const;
 
   // Constant after construction.
   const int num_locations_;
@@ -123,6 +149,7 @@ class SequenceFilter {
   const SequenceOptions options_;
   int forward_ = 0;
   int backward_ = 0;
+  int tracked_ = 0;
   // evidence_spread^d for d = 0..the map's band; empty when evidence_spread is 0.
   std::vector<double> spread_;
   // Per speed, where one frame takes the robot: whole locations and their weights (sum 1).

@@ -2,8 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
+#include <vector>
 
 #include "tests/support/test_map.h"
 
@@ -108,14 +110,9 @@ TEST_F(SequenceFilterTest, EndsOfTheRouteGatherNoBelief) {
   const SequenceFilter filter = Filter();
   SequenceState state;
   for (int t = 0; t < 12; ++t) filter.Update(FrameEvidence{}, &state);
-  const int speeds = filter.num_speeds();
-  const double off = state.belief[static_cast<size_t>(speeds) * kLocations];
+  const double off = state.location[kLocations];
   const double each = (1 - off) / kLocations;
-  for (int l = 0; l < kLocations; ++l) {
-    double at = 0;  // at any speed
-    for (int v = 0; v < speeds; ++v) at += state.belief[static_cast<size_t>(v) * kLocations + l];
-    EXPECT_NEAR(at, each, each * 1e-4) << l;
-  }
+  for (int l = 0; l < kLocations; ++l) EXPECT_NEAR(state.location[l], each, each * 1e-4) << l;
 }
 
 // A robot standing near the start of the route with weak evidence is answered where it
@@ -260,15 +257,85 @@ TEST_F(SequenceFilterTest, FirstFrameElsewhereIsUnknown) {
   EXPECT_EQ(Filter().Update(Elsewhere(), &state).decision, Decision::kUnknown);
 }
 
-// A state of another size (a state of another map) is restarted, never read.
+// A state that does not fit (another map's, other settings', tracked locations out of
+// order) is restarted, never read.
 TEST_F(SequenceFilterTest, ForeignStateRestarts) {
+  const SequenceFilter filter = Filter();
+  SequenceState fits;
+  filter.Update(Frame(30), &fits);
+  ASSERT_TRUE(filter.Fits(fits));
+  std::vector<SequenceState> foreign(4, fits);
+  foreign[0].location.assign(17, 1.0f / 17);  // another map
+  foreign[1].speeds.pop_back();               // other speeds
+  std::swap(foreign[2].tracked[0], foreign[2].tracked[1]);
+  foreign[3].tracked.back() = kLocations;  // past the map
+  for (SequenceState& state : foreign) {
+    EXPECT_FALSE(filter.Fits(state));
+    state.frames = 99;
+    const SequenceAnswer a = filter.Update(Frame(70), &state);
+    EXPECT_EQ(a.frames, 1u);
+    EXPECT_TRUE(filter.Fits(state));
+    EXPECT_LE(std::abs(a.location - 70), 2);
+  }
+}
+
+// Between frames a state keeps the speeds of the most probable locations only (the others
+// share one distribution): num_tracked() of them, ascending, none less probable than a
+// location left out.
+TEST_F(SequenceFilterTest, StateKeepsTheMostProbableLocationsSpeeds) {
+  options_.tracked_locations = 16;
+  const SequenceFilter filter = Filter();
+  EXPECT_EQ(filter.num_tracked(), 16);
   SequenceState state;
-  state.belief.assign(17, 1.0f / 17);
-  state.frames = 99;
-  const SequenceAnswer a = Filter().Update(Frame(70), &state);
-  EXPECT_EQ(a.frames, 1u);
-  EXPECT_EQ(state.belief.size(), Filter().state_size());
-  EXPECT_LE(std::abs(a.location - 70), 2);
+  for (int t = 0; t < 20; ++t) filter.Update(Frame(50 + t, 4, t % 4 == 3 ? 150 : -1), &state);
+  ASSERT_EQ(state.tracked.size(), 16u);
+  EXPECT_EQ(state.speeds.size(), 17u * static_cast<size_t>(filter.num_speeds()));
+  EXPECT_EQ(state.location.size(), static_cast<size_t>(kLocations) + 1);
+  std::vector<bool> tracked(kLocations, false);
+  float least_tracked = 1;
+  for (size_t i = 0; i < state.tracked.size(); ++i) {
+    if (i > 0) EXPECT_LT(state.tracked[i - 1], state.tracked[i]);
+    tracked[state.tracked[i]] = true;
+    least_tracked = std::min(least_tracked, state.location[state.tracked[i]]);
+  }
+  EXPECT_TRUE(tracked[69]);  // where the robot is
+  for (int l = 0; l < kLocations; ++l) {
+    if (!tracked[l]) EXPECT_LE(state.location[l], least_tracked) << l;
+  }
+  // A map smaller than the setting: every location tracked.
+  options_.tracked_locations = 1000;
+  EXPECT_EQ(Filter().num_tracked(), kLocations);
+}
+
+// Keeping few locations' speeds answers as keeping every one: a walk with look-alikes, a
+// change of pace, a turn and a kidnap, filtered with 8 and with all 200 tracked. Where the
+// robot is and how fast it goes are nearly independent away from where it might be.
+TEST_F(SequenceFilterTest, FewTrackedLocationsAnswerAsAll) {
+  std::vector<int> route;
+  for (int t = 0; t < 30; ++t) route.push_back(20 + t);       // one location per frame
+  for (int t = 0; t < 20; ++t) route.push_back(50 + 2 * t);   // two per frame
+  for (int t = 0; t < 20; ++t) route.push_back(90 - t);       // turned round
+  for (int t = 0; t < 20; ++t) route.push_back(150 + t / 2);  // carried off, half speed
+  std::vector<FrameEvidence> frames;
+  for (size_t t = 0; t < route.size(); ++t) {
+    frames.push_back(Frame(route[t], 4, t % 5 == 4 ? (route[t] + 100) % kLocations : -1));
+  }
+  std::vector<std::vector<int>> answers;
+  for (const int tracked : {kLocations, 8}) {
+    options_.tracked_locations = tracked;
+    const SequenceFilter filter = Filter();
+    SequenceState state;
+    answers.emplace_back();
+    for (const FrameEvidence& e : frames)
+      answers.back().push_back(filter.Update(e, &state).location);
+  }
+  int differ = 0, wrong = 0;
+  for (size_t t = 0; t < route.size(); ++t) {
+    differ += answers[0][t] != answers[1][t] ? 1 : 0;
+    wrong += std::abs(answers[1][t] - route[t]) > 2 ? 1 : 0;
+  }
+  EXPECT_LE(differ, 2);
+  EXPECT_LE(wrong, 12);  // the first frames and each change of place
 }
 
 // The belief stays a distribution however long the session runs.
@@ -276,13 +343,21 @@ TEST_F(SequenceFilterTest, BeliefStaysNormalised) {
   const SequenceFilter filter = Filter();
   SequenceState state;
   for (int t = 0; t < 300; ++t) filter.Update(Frame((t * 7) % kLocations, 8), &state);
-  double total = 0;
-  for (const float b : state.belief) {
-    ASSERT_TRUE(std::isfinite(b));
-    ASSERT_GE(b, 0.0f);
-    total += b;
+  const auto expect_distribution = [](const float* p, size_t n) {
+    double total = 0;
+    for (size_t i = 0; i < n; ++i) {
+      ASSERT_TRUE(std::isfinite(p[i]));
+      ASSERT_GE(p[i], 0.0f);
+      total += p[i];
+    }
+    EXPECT_NEAR(total, 1.0, 1e-4);
+  };
+  expect_distribution(state.location.data(), state.location.size());
+  const size_t speeds = static_cast<size_t>(filter.num_speeds());
+  ASSERT_EQ(state.speeds.size(), (state.tracked.size() + 1) * speeds);
+  for (size_t row = 0; row <= state.tracked.size(); ++row) {
+    expect_distribution(state.speeds.data() + row * speeds, speeds);
   }
-  EXPECT_NEAR(total, 1.0, 1e-4);
 }
 
 // The band the map suggests: the median track length (at least 2); the fastest speed either
@@ -296,7 +371,8 @@ TEST_F(SequenceFilterTest, MotionBandFromTheMap) {
   EXPECT_EQ(filter.max_forward(), 2 * band);
   EXPECT_EQ(filter.max_backward(), 2 * band);
   EXPECT_EQ(filter.num_speeds(), 8 * band + 1);  // -2 band..2 band in half locations
-  EXPECT_EQ(filter.state_size(), static_cast<size_t>(8 * band + 1) * kLocations + 1);
+  EXPECT_EQ(filter.num_tracked(), 64);           // the default
+  EXPECT_EQ(SequenceFilter::StateValues(kLocations, 17, 64), 201u + 64 + 65 * 17);
 }
 
 // Settings out of range are refused with the setting's name.
@@ -311,6 +387,9 @@ TEST(SequenceOptionsTest, ValidateNamesTheSetting) {
   o = {};
   o.max_forward = -2;
   EXPECT_NE(o.Validate().message().find("max_forward"), std::string::npos);
+  o = {};
+  o.tracked_locations = -1;
+  EXPECT_NE(o.Validate().message().find("tracked_locations"), std::string::npos);
   o = {};
   o.leave = std::nan("");
   EXPECT_FALSE(o.Validate().ok());

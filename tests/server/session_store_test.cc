@@ -13,7 +13,7 @@ using std::chrono::seconds;
 
 // A step that counts frames in the state as the filter does (one float per frame).
 void Step(SequenceState* state) {
-  state->belief.push_back(1.0f);
+  state->location.push_back(1.0f);
   ++state->frames;
 }
 
@@ -107,7 +107,7 @@ TEST(SessionStoreTest, MemoryIsCounted) {
   SessionStore store(Options(1000, 60));
   const Clock::time_point t0 = Clock::now();
   EXPECT_EQ(store.Counts().memory_bytes, 0u);
-  const auto big = [](SequenceState* s) { s->belief.assign(1001, 0.001f); };
+  const auto big = [](SequenceState* s) { s->location.assign(1001, 0.001f); };
   for (int i = 0; i < 100; ++i) store.Update("", "m", std::to_string(i), 1, {}, t0, big);
   const SessionCounts c = store.Counts();
   EXPECT_EQ(c.live, 100u);
@@ -125,13 +125,13 @@ TEST(SessionStoreTest, StateBytesAreBounded) {
   options.max_state_bytes = 10 * 1000 * sizeof(float);  // ten states of 1000 locations
   SessionStore store(options);
   const Clock::time_point t0 = Clock::now();
-  const auto state = [](SequenceState* s) { s->belief.assign(1000, 0.001f); };
+  const auto state = [](SequenceState* s) { s->location.assign(1000, 0.001f); };
   for (int i = 0; i < 25; ++i) store.Update("", "m", std::to_string(i), 1, {}, t0, state);
   EXPECT_EQ(store.Counts().live, 10u);
   EXPECT_EQ(store.Counts().evicted, 15u);
   EXPECT_EQ(store.Update("", "m", "24", 1, {}, t0, state), SessionStart::kContinued);
   EXPECT_EQ(store.Update("", "m", "0", 1, {}, t0, state), SessionStart::kNew);
-  const auto huge = [](SequenceState* s) { s->belief.assign(20000, 0.001f); };
+  const auto huge = [](SequenceState* s) { s->location.assign(20000, 0.001f); };
   store.Update("", "m", "huge", 1, {}, t0, huge);
   EXPECT_EQ(store.Counts().live, 1u);
   EXPECT_EQ(store.Update("", "m", "huge", 1, {}, t0, huge), SessionStart::kContinued);

@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <cstring>
+#include <limits>
+#include <string>
 #include <vector>
 
 #include "common/map/crc32.h"
@@ -12,43 +14,57 @@ namespace sceneloc {
 namespace {
 
 TokenOwner Owner(const std::string& session = "robot-1", uint32_t checksum = 0xabcdef01u) {
-  return {"robot-key", session, checksum, 4, 2};
+  return {"robot-key", session, checksum, 4, 2, 2};
 }
 
 SequenceState State() {
   SequenceState s;
-  // 4 locations at the first of two speeds, the same 4 at the second, off-map.
-  s.belief = {0.05f, 0.3f, 0.1f, 0.025f, 0.05f, 0.3f, 0.1f, 0.025f, 0.05f};
+  // 4 locations and off-map; locations 1 and 2 keep their two speeds, 0 and 3 share one.
+  s.location = {0.1f, 0.6f, 0.2f, 0.05f, 0.05f};
+  s.tracked = {1, 2};
+  s.speeds = {0.5f, 0.5f, 0.25f, 0.75f, 1.0f, 0.0f};
   s.frames = 17;
   return s;
 }
 
-// A state survives the round trip exactly; its size is 32 + 4 (S N + 1) bytes.
+// A state survives the round trip exactly; its size is 36 + 4 (N + 1 + K + (K + 1) S)
+// bytes.
 TEST(SessionTokenTest, RoundTrip) {
-  const std::string bytes = SerializeSessionToken(State(), Owner());
-  EXPECT_EQ(bytes.size(), 32u + 4 * 9);
+  const SequenceState state = State();
+  const std::string bytes = SerializeSessionToken(state, Owner());
+  EXPECT_EQ(bytes.size(), 36u + 4 * (5 + 2 + 6));
   SequenceState parsed;
   auto fit = ParseSessionToken(bytes, Owner(), &parsed);
   ASSERT_TRUE(fit.ok()) << fit.status().ToString();
   EXPECT_EQ(*fit, TokenFit::kFits);
   EXPECT_EQ(parsed.frames, 17u);
-  ASSERT_EQ(parsed.belief.size(), 9u);
-  for (size_t i = 0; i < 9; ++i) EXPECT_NEAR(parsed.belief[i], State().belief[i], 1e-6);
+  EXPECT_EQ(parsed.location, state.location);
+  EXPECT_EQ(parsed.tracked, state.tracked);
+  EXPECT_EQ(parsed.speeds, state.speeds);
 }
 
-// Tokens of the formats before the speed was state ("SLS1": N + 1 values; "SLS2": the
-// direction of travel, 2N + 1) that a client kept across the server's upgrade start their
-// session again: not an error. The same bytes damaged are still refused.
+// Tokens of the earlier formats ("SLS1": N + 1 values; "SLS2": the direction of travel,
+// 2N + 1; "SLS3": every location's speeds, S N + 1) that a client kept across the server's
+// upgrade start their session again: not an error. The same bytes damaged are still
+// refused.
 TEST(SessionTokenTest, EarlierFormatsStartAgain) {
-  for (const int values : {5, 9}) {
-    std::string old(values == 5 ? "SLS1" : "SLS2");
+  struct Old {
+    const char* magic;
+    std::vector<uint32_t> header;  // after the magic: map checksum, counts, frames
+    int values;
+  };
+  const Old olds[] = {{"SLS1", {0xabcdef01u, 4, 17}, 5},
+                      {"SLS2", {0xabcdef01u, 4, 17}, 9},
+                      {"SLS3", {0xabcdef01u, 4, 2, 17}, 9}};
+  for (const Old& o : olds) {
+    SCOPED_TRACE(o.magic);
+    std::string old(o.magic);
     const auto put = [&old](const void* p, size_t n) {
       old.append(static_cast<const char*>(p), n);
     };
-    const uint32_t header[3] = {0xabcdef01u, 4, 17};
     const uint64_t session_hash = 0;
-    const std::vector<float> belief(static_cast<size_t>(values), 1.0f / values);
-    put(header, sizeof(header));
+    const std::vector<float> belief(static_cast<size_t>(o.values), 1.0f / o.values);
+    put(o.header.data(), o.header.size() * sizeof(uint32_t));
     put(&session_hash, sizeof(session_hash));
     put(belief.data(), belief.size() * sizeof(float));
     const uint32_t crc = Crc32(old.data(), old.size());
@@ -86,23 +102,35 @@ TEST(SessionTokenTest, CorruptTokensAreRefused) {
 
 // A token made with a valid checksum but impossible values (forged) is refused too.
 TEST(SessionTokenTest, ForgedValuesAreRefused) {
+  const auto refusal = [](const SequenceState& s) {
+    SequenceState parsed;
+    const auto fit = ParseSessionToken(SerializeSessionToken(s, Owner()), Owner(), &parsed);
+    EXPECT_FALSE(fit.ok());
+    return std::string(fit.status().message());
+  };
   SequenceState s = State();
-  SequenceState parsed;
-  s.belief[2] = std::nanf("");
-  EXPECT_NE(ParseSessionToken(SerializeSessionToken(s, Owner()), Owner(), &parsed)
-                .status()
-                .message()
-                .find("not finite"),
-            std::string::npos);
+  s.location[2] = std::nanf("");
+  EXPECT_NE(refusal(s).find("not finite"), std::string::npos);
   s = State();
-  s.belief[1] = -0.5f;
-  EXPECT_FALSE(ParseSessionToken(SerializeSessionToken(s, Owner()), Owner(), &parsed).ok());
-  s.belief.assign(9, 0.0f);
-  EXPECT_NE(ParseSessionToken(SerializeSessionToken(s, Owner()), Owner(), &parsed)
-                .status()
-                .message()
-                .find("sums to zero"),
-            std::string::npos);
+  s.location[1] = -0.5f;
+  EXPECT_NE(refusal(s).find("negative"), std::string::npos);
+  s = State();
+  s.speeds[3] = std::numeric_limits<float>::infinity();
+  EXPECT_NE(refusal(s).find("not finite"), std::string::npos);
+  s = State();
+  s.location.assign(5, 0.0f);
+  EXPECT_NE(refusal(s).find("sums to zero"), std::string::npos);
+  s = State();
+  s.speeds[4] = 0;  // the shared row
+  s.speeds[5] = 0;
+  EXPECT_NE(refusal(s).find("sums to zero"), std::string::npos);
+  s = State();
+  s.tracked = {2, 1};
+  EXPECT_NE(refusal(s).find("tracked locations"), std::string::npos);
+  s.tracked = {1, 1};
+  EXPECT_NE(refusal(s).find("tracked locations"), std::string::npos);
+  s.tracked = {1, 4};  // past the map's 4 locations
+  EXPECT_NE(refusal(s).find("tracked locations"), std::string::npos);
 }
 
 // Another session's token (name or key) is refused; another map's starts the session again.
@@ -128,6 +156,12 @@ TEST(SessionTokenTest, OwnerChecked) {
   auto other_speeds = ParseSessionToken(bytes, faster, &parsed);
   ASSERT_TRUE(other_speeds.ok());
   EXPECT_EQ(*other_speeds, TokenFit::kOtherMap);
+  // And one that keeps fewer locations' speeds than the token holds.
+  TokenOwner fewer = Owner();
+  fewer.max_tracked = 1;
+  auto fewer_tracked = ParseSessionToken(bytes, fewer, &parsed);
+  ASSERT_TRUE(fewer_tracked.ok());
+  EXPECT_EQ(*fewer_tracked, TokenFit::kOtherMap);
 }
 
 // Location and speed counts that multiply past the token's size (forged, with a valid
@@ -136,7 +170,8 @@ TEST(SessionTokenTest, CountsBeyondTheTokenAreRefused) {
   std::string bytes = SerializeSessionToken(State(), Owner());
   const uint32_t huge = 0x40000001u;
   std::memcpy(&bytes[8], &huge, 4);   // locations
-  std::memcpy(&bytes[12], &huge, 4);  // speeds: the product wraps in 32 bits
+  std::memcpy(&bytes[12], &huge, 4);  // speeds
+  std::memcpy(&bytes[16], &huge, 4);  // tracked: the products wrap in 32 bits
   const uint32_t crc = Crc32(bytes.data(), bytes.size() - 4);
   std::memcpy(&bytes[bytes.size() - 4], &crc, 4);
   SequenceState parsed;

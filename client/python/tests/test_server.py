@@ -21,12 +21,12 @@ Connect = Callable[[ServerProcess], sceneloc.Client]
 
 
 def check_session_state(state: bytes, num_locations: int) -> None:
-    """A session's state as server/session_token.h lays it out: "SLS3", the map's checksum,
-    N locations, S speeds, ..., 32 + 4 (S N + 1) bytes."""
-    assert state[:4] == b"SLS3"
-    locations, speeds = struct.unpack_from("<II", state, 8)
-    assert locations == num_locations and speeds >= 1
-    assert len(state) == 32 + 4 * (speeds * num_locations + 1)
+    """A session's state as server/session_token.h lays it out: "SLS4", the map's checksum,
+    N locations, S speeds, K tracked locations, ..., 36 + 4 (N + 1 + K + (K + 1) S) bytes."""
+    assert state[:4] == b"SLS4"
+    locations, speeds, tracked = struct.unpack_from("<III", state, 8)
+    assert locations == num_locations and speeds >= 1 and 1 <= tracked <= locations
+    assert len(state) == 36 + 4 * (locations + 1 + tracked + (tracked + 1) * speeds)
 
 
 # A JPEG of a tour image is localised at its own location, LOCALISED, with everything the
