@@ -3,6 +3,7 @@
 // input layout of fuzz_map.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -29,6 +30,20 @@ StatusOr<FuzzWorld> MakeFuzzWorld();
 inline constexpr uint8_t kMapModeWholeFile = 0;
 inline constexpr uint8_t kMapModePayloadV2 = 1;
 inline constexpr uint8_t kMapModePayloadV1 = 3;
+
+// fuzz_session's input: one mode byte, then a session token (server/session_token.h).
+//   mode & 1: the target makes the token's CRC right, so the fuzzer reaches its counts
+//             and values instead of stopping at the checksum;
+//   mode & 2: the map's filter keeps the speeds of kSessionFewTracked locations (the
+//             compaction of sequence_filter.h), else of every location.
+// The token belongs to session kSessionName of client kSessionClient on a map whose
+// checksum is kSessionMapChecksum.
+inline constexpr uint8_t kSessionModeFixCrc = 1;
+inline constexpr uint8_t kSessionModeFewTracked = 2;
+inline constexpr int kSessionFewTracked = 3;
+inline constexpr char kSessionClient[] = "robot-key";
+inline constexpr char kSessionName[] = "robot-1";
+inline constexpr uint32_t kSessionMapChecksum = 0x5eed5eedu;
 
 // A map file of `payload` with a valid header of `format_version`.
 std::string WithHeader(const std::string& payload, uint32_t format_version);

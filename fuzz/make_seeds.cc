@@ -7,7 +7,9 @@
 //   jpeg:    generated tour frames (baseline, progressive, grey, small), and up to 4
 //            frames of each dev set in DATA_DIR (../shared/data) when it is there;
 //   map:     the fuzz map as a whole file and as a payload, and V1_MAP (a format-1 map)
-//            both ways.
+//            both ways;
+//   session: the states of a session of a few frames on the fuzz map, in every
+//            fuzz_session mode.
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -19,10 +21,12 @@
 
 #include "common/features/extractor.h"
 #include "common/map/map_io.h"
+#include "common/matching/sequence_filter.h"
 #include "common/util/image_folder.h"
 #include "fuzz/fuzz_world.h"
 #include "proto/sceneloc.pb.h"
 #include "proto/wire.h"
+#include "server/session_token.h"
 
 namespace sceneloc {
 namespace {
@@ -130,6 +134,28 @@ void WriteMapSeeds(const fuzz::FuzzWorld& world, const std::string& v1_map, cons
   write("v1_payload", fuzz::kMapModePayloadV1, v1.substr(kMapHeaderBytes));
 }
 
+void WriteSessionSeeds(const fuzz::FuzzWorld& world, const fs::path& dir) {
+  const int n = world.map.num_images();
+  for (const int mode : {0, 1, 2, 3}) {  // fuzz::kSessionModeFixCrc | kSessionModeFewTracked
+    SequenceOptions options;
+    if ((mode & fuzz::kSessionModeFewTracked) != 0) {
+      options.tracked_locations = fuzz::kSessionFewTracked;
+    }
+    const SequenceFilter filter(world.map, options);
+    const TokenOwner owner{fuzz::kSessionClient, fuzz::kSessionName,  fuzz::kSessionMapChecksum, n,
+                           filter.num_speeds(),  filter.num_tracked()};
+    SequenceState state;
+    for (int t = 0; t < 3; ++t) {
+      FrameEvidence frame;
+      frame.in_map = 0.8;
+      for (int l = 0; l < n; ++l) frame.location_scores.push_back(l == t ? 4.0f : 0.0f);
+      filter.Update(frame, &state);
+      Write(dir / ("mode" + std::to_string(mode) + "_frame" + std::to_string(t)),
+            std::string(1, static_cast<char>(mode)) + SerializeSessionToken(state, owner));
+    }
+  }
+}
+
 }  // namespace
 }  // namespace sceneloc
 
@@ -145,10 +171,11 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "%s\n", world.status().ToString().c_str());
     return 1;
   }
-  for (const char* d : {"request", "jpeg", "map"}) fs::create_directories(out / d);
+  for (const char* d : {"request", "jpeg", "map", "session"}) fs::create_directories(out / d);
   WriteRequestSeeds(*world, out / "request");
   WriteJpegSeeds(*world, argc > 3 ? argv[3] : "", out / "jpeg");
   WriteMapSeeds(*world, argc > 2 ? argv[2] : "", out / "map");
+  WriteSessionSeeds(*world, out / "session");
   std::printf("seeds written to %s\n", out.c_str());
   return 0;
 }

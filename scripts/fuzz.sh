@@ -14,7 +14,7 @@ cd "$(dirname "$0")/.."
 seconds=${1:-60}
 shift || true
 targets=("$@")
-((${#targets[@]})) || targets=(fuzz_request fuzz_jpeg fuzz_map fuzz_handler)
+((${#targets[@]})) || targets=(fuzz_request fuzz_jpeg fuzz_map fuzz_handler fuzz_session)
 
 bash scripts/setup.sh --fuzz
 if [[ ! -f build-fuzz/CMakeCache.txt ]]; then
@@ -26,7 +26,7 @@ fi
 cmake --build build-fuzz -j"$(nproc)" --target "${targets[@]}" sceneloc-fuzz-seeds
 
 seeds=build-fuzz/seeds
-if [[ ! -d $seeds ]]; then
+if [[ ! -d $seeds/session ]]; then  # the newest target's seeds: older folders are redone
   data=../shared/data
   [[ -d $data ]] || data=""
   build-fuzz/fuzz/sceneloc-fuzz-seeds "$seeds" tests/data/v1_map.scnl $data
@@ -41,6 +41,7 @@ for target in "${targets[@]}"; do
     fuzz_request | fuzz_handler) seed=$seeds/request ;;
     fuzz_jpeg) seed=$seeds/jpeg ;;
     fuzz_map) seed=$seeds/map ;;
+    fuzz_session) seed=$seeds/session ;;
     *) echo "fuzz.sh: unknown target '$target'" >&2; exit 2 ;;
   esac
   corpus=build-fuzz/corpus/$target
