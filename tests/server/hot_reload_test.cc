@@ -14,6 +14,7 @@
 
 #include "client/client.h"
 #include "common/map/map_io.h"
+#include "tests/server/server_call_support.h"
 #include "tests/server/server_test_support.h"
 
 namespace sceneloc {
@@ -23,16 +24,8 @@ namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 using test::kTestMapName;
 using test::kTestTourLocations;
+using test::MustConnect;
 constexpr std::chrono::seconds kWait(20);
-
-std::unique_ptr<Client> MustConnect(const std::string& endpoint) {
-  ClientOptions options;
-  options.timeout_ms = 20000;
-  options.retries = 0;
-  auto client = Client::Connect(endpoint, options);
-  EXPECT_TRUE(client.ok()) << client.status().ToString();
-  return client.ok() ? std::move(client).value() : nullptr;
-}
 
 // Clients on their own threads sending feature-set localise requests back to back until
 // stopped, checking every answer and recording the map generation each reply names.
