@@ -39,7 +39,7 @@ struct SessionOptions {
   double idle_timeout_s = 600;
   // The sessions' filter states together at most, bytes: a state holds a float per tour
   // location and the speeds of the tracked ones (sequence_filter.h), so 10,000 sessions on
-  // a 5,000-location map would be 245 MB. Past it the
+  // a 5,000-location map would be 247 MB. Past it the
   // least recently used are dropped (the one just updated is always kept). Their clients
   // still continue from the state their replies carry.
   int64_t max_state_bytes = int64_t{64} << 20;
