@@ -68,8 +68,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   }
   const SequenceFilter& filter = (mode & fuzz::kSessionModeFewTracked) != 0 ? *f.few : *f.every;
   const int n = f.map.num_images();
-  const TokenOwner owner{fuzz::kSessionClient, fuzz::kSessionName,  fuzz::kSessionMapChecksum, n,
-                         filter.num_speeds(),  filter.num_tracked()};
+  const TokenOwner owner{fuzz::kSessionClient, fuzz::kSessionName, fuzz::kSessionMapChecksum, n,
+                         filter.num_speeds()};
   SequenceState state;
   const auto fit = ParseSessionToken(bytes, owner, &state);
   if (!fit.ok() || *fit != TokenFit::kFits) return 0;

@@ -142,8 +142,8 @@ void WriteSessionSeeds(const fuzz::FuzzWorld& world, const fs::path& dir) {
       options.tracked_locations = fuzz::kSessionFewTracked;
     }
     const SequenceFilter filter(world.map, options);
-    const TokenOwner owner{fuzz::kSessionClient, fuzz::kSessionName,  fuzz::kSessionMapChecksum, n,
-                           filter.num_speeds(),  filter.num_tracked()};
+    const TokenOwner owner{fuzz::kSessionClient, fuzz::kSessionName, fuzz::kSessionMapChecksum, n,
+                           filter.num_speeds()};
     SequenceState state;
     for (int t = 0; t < 3; ++t) {
       FrameEvidence frame;

@@ -83,12 +83,8 @@ StatusOr<FeatureSet> ExtractJpeg(const std::string& jpeg, const LoadedMap& map,
 
 TokenOwner TokenOwnerOf(const std::string& client, const v1::LocaliseRequest& request,
                         const LoadedMap& map) {
-  return {client,
-          request.session(),
-          map.checksum,
-          map.map.num_images(),
-          map.sequence->num_speeds(),
-          map.sequence->num_tracked()};
+  return {client, request.session(), map.checksum, map.map.num_images(),
+          map.sequence->num_speeds()};
 }
 
 // The fields of a localise request that are checked before any work: top_k,

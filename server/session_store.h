@@ -13,7 +13,9 @@
 // (README "Robot sessions" says why both).
 //
 // Thread-safe: Update may run on any number of threads at once; one mutex guards the
-// store, held for the filter's update (microseconds; docs/results.md).
+// store, held for the filter's update: 39 µs a frame at 200 locations, 2.6 ms at 10,000
+// (docs/results.md), which bounds one server to some 380 session frames a second on maps
+// that large.
 #pragma once
 
 #include <chrono>

@@ -92,7 +92,8 @@ StatusOr<TokenFit> ParseSessionToken(const std::string& bytes, const TokenOwner&
   const uint32_t tracked = Get<uint32_t>(bytes, &at);
   const uint32_t frames = Get<uint32_t>(bytes, &at);
   const uint64_t session = Get<uint64_t>(bytes, &at);
-  // Every count is bounded by the token's own size before they are multiplied.
+  // Every count is bounded by the token's own size (under 2^32 values) before they are
+  // multiplied, in 64 bits.
   const size_t values = (body - kHeaderBytes) / 4;
   if ((body - kHeaderBytes) % 4 != 0 || locations == 0 || speeds == 0 || locations > values ||
       speeds > values || tracked > locations ||
@@ -102,11 +103,9 @@ StatusOr<TokenFit> ParseSessionToken(const std::string& bytes, const TokenOwner&
   if (session != SessionHash(owner)) {
     return InvalidArgument("session_state belongs to another session (another name or key)");
   }
-  // Another map, map version, or filter settings (other speeds, more tracked locations):
-  // start again.
+  // Another map, map version, or filter settings (other speeds): start again.
   if (checksum != owner.map_checksum || static_cast<int>(locations) != owner.num_locations ||
-      static_cast<int>(speeds) != owner.num_speeds ||
-      static_cast<int>(tracked) > owner.max_tracked) {
+      static_cast<int>(speeds) != owner.num_speeds) {
     return TokenFit::kOtherMap;
   }
   SequenceState parsed;

@@ -12,8 +12,9 @@
 // it. 36 + 4 (N + 1 + K + (K + 1) S) bytes: 5,516 at 200 locations, 17 speeds and 64
 // tracked; 44,716 at 10,000. A well-formed token of an earlier format ("SLS1": N + 1
 // values; "SLS2": 2N + 1, the direction of travel; "SLS3": S N + 1, every location's
-// speeds) or of other filter settings (another S, more tracked locations than this
-// server's filter keeps) starts the session again, as another map's does.
+// speeds) or of other filter settings (another S) starts the session again, as another
+// map's does; one with another number of tracked locations continues (the next frame
+// compacts it to this server's).
 //
 // The bytes come from the client: untrusted. ParseSessionToken checks size, checksum,
 // finite non-negative belief with a positive sum, and which session it belongs to.
@@ -35,8 +36,7 @@ struct TokenOwner {
   std::string session;
   uint32_t map_checksum = 0;
   int num_locations = 0;
-  int num_speeds = 0;   // SequenceFilter::num_speeds() of the map's filter
-  int max_tracked = 0;  // and its num_tracked()
+  int num_speeds = 0;  // SequenceFilter::num_speeds() of the map's filter
 };
 
 std::string SerializeSessionToken(const SequenceState& state, const TokenOwner& owner);

@@ -200,7 +200,7 @@ void SequenceFilter::Observe(const FrameEvidence& evidence, std::vector<float>* 
 
 bool SequenceFilter::Fits(const SequenceState& state) const {
   const size_t n = static_cast<size_t>(num_locations_), tracked = state.tracked.size();
-  if (state.location.size() != n + 1 || tracked > static_cast<size_t>(tracked_) ||
+  if (state.location.size() != n + 1 || tracked > n ||
       state.speeds.size() != (tracked + 1) * static_cast<size_t>(num_speeds())) {
     return false;
   }

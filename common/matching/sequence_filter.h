@@ -102,7 +102,9 @@ class SequenceFilter {
   SequenceAnswer Update(const FrameEvidence& evidence, SequenceState* state) const;
 
   // Whether `state` is a state of this filter: its sizes, and tracked locations ascending
-  // on the map, at most tracked_locations of them. Values are not checked.
+  // on the map. Values are not checked. A state that tracks more or fewer locations than
+  // this filter keeps fits (a server whose tracked_locations differs, in a fleet being
+  // reconfigured): the next Update compacts it to num_tracked().
   bool Fits(const SequenceState& state) const;
 
   // How many tour frames apart the map's views still overlap: the median number of tour
@@ -117,7 +119,7 @@ class SequenceFilter {
 
   // The values of a session's state (SequenceState) over `num_locations` tour locations,
   // `speeds` speeds and `tracked` tracked locations.
-  static size_t StateValues(size_t num_locations, size_t speeds, size_t tracked) {
+  static uint64_t StateValues(uint64_t num_locations, uint64_t speeds, uint64_t tracked) {
     return num_locations + 1 + tracked + (tracked + 1) * speeds;
   }
   // Speeds run from -max_backward to max_forward in steps of half a location per frame.

@@ -37,7 +37,7 @@ struct SequenceOptions {
   double min_confidence = 0.8;
   // Between frames a session keeps every location's belief but the distribution over
   // speeds only of this many locations, the most probable; the others share one. It bounds
-  // a session's state to N + 1 + (K + 1) S values (sequence_filter.h) instead of S N + 1:
+  // a session's state to N + 1 + K + (K + 1) S values (sequence_filter.h) instead of S N + 1:
   // 44 KB instead of 680 KB at 10,000 locations. Measured on the dev sets: 16 answers as
   // every location's own (docs/results.md "Sessions: a state that does not grow with the
   // speeds").

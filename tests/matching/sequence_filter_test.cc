@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <numeric>
 #include <random>
 #include <vector>
 
@@ -294,17 +296,60 @@ TEST_F(SequenceFilterTest, StateKeepsTheMostProbableLocationsSpeeds) {
   std::vector<bool> tracked(kLocations, false);
   float least_tracked = 1;
   for (size_t i = 0; i < state.tracked.size(); ++i) {
-    if (i > 0) EXPECT_LT(state.tracked[i - 1], state.tracked[i]);
+    if (i > 0) {
+      EXPECT_LT(state.tracked[i - 1], state.tracked[i]);
+    }
     tracked[state.tracked[i]] = true;
     least_tracked = std::min(least_tracked, state.location[state.tracked[i]]);
   }
   EXPECT_TRUE(tracked[69]);  // where the robot is
   for (int l = 0; l < kLocations; ++l) {
-    if (!tracked[l]) EXPECT_LE(state.location[l], least_tracked) << l;
+    if (!tracked[l]) {
+      EXPECT_LE(state.location[l], least_tracked) << l;
+    }
   }
   // A map smaller than the setting: every location tracked.
   options_.tracked_locations = 1000;
   EXPECT_EQ(Filter().num_tracked(), kLocations);
+}
+
+// A state that tracks more or fewer locations than the filter keeps (made by a server with
+// another tracked_locations) continues and is compacted to the filter's.
+TEST_F(SequenceFilterTest, StatesOfOtherTrackedCountsContinue) {
+  for (const auto& [from, to] : {std::pair<int, int>{16, 64}, {64, 16}, {0, 200}}) {
+    options_.tracked_locations = from;
+    SequenceState state;
+    const SequenceFilter before = Filter();
+    for (int t = 0; t < 5; ++t) before.Update(Frame(40 + t), &state);
+    options_.tracked_locations = to;
+    const SequenceFilter after = Filter();
+    ASSERT_TRUE(after.Fits(state)) << from << " -> " << to;
+    const SequenceAnswer a = after.Update(Frame(45), &state);
+    EXPECT_EQ(a.frames, 6u);
+    EXPECT_LE(std::abs(a.location - 45), 2);
+    EXPECT_EQ(state.tracked.size(), static_cast<size_t>(to));
+  }
+}
+
+// Compaction is deterministic: among equally probable locations the lower ones keep their
+// speeds, so every process compacts a belief alike.
+TEST_F(SequenceFilterTest, TiesGoToTheLowerLocation) {
+  options_.tracked_locations = 16;
+  const SequenceFilter filter = Filter();
+  SequenceState state;
+  filter.Update(FrameEvidence{}, &state);  // no evidence: a uniform belief
+  std::vector<uint32_t> first(16);
+  std::iota(first.begin(), first.end(), 0u);
+  EXPECT_EQ(state.tracked, first);
+}
+
+// A frame count carried in from a client stops at its largest value instead of wrapping.
+TEST_F(SequenceFilterTest, FrameCountSaturates) {
+  const SequenceFilter filter = Filter();
+  SequenceState state;
+  filter.Update(Frame(10), &state);
+  state.frames = UINT32_MAX;
+  EXPECT_EQ(filter.Update(Frame(11), &state).frames, UINT32_MAX);
 }
 
 // Keeping few locations' speeds answers as keeping every one: a walk with look-alikes, a

@@ -118,6 +118,18 @@ TEST(SessionStoreTest, MemoryIsCounted) {
   EXPECT_LT(store.Counts().memory_bytes, 1024u);
 }
 
+// A state's memory counts its three parts: the locations, the tracked ones and their speeds.
+TEST(SessionStoreTest, EveryPartOfAStateIsCounted) {
+  SessionStore store(Options(10));
+  const auto state = [](SequenceState* s) {
+    s->location.assign(1000, 0.001f);
+    s->tracked.assign(100, 0);
+    s->speeds.assign(2000, 0.5f);
+  };
+  store.Update("", "m", "one", 1, {}, Clock::now(), state);
+  EXPECT_GE(store.Counts().memory_bytes, (1000 + 100 + 2000) * sizeof(float));
+}
+
 // The states together stay within max_state_bytes: the least recently used go first, the
 // session just updated never, even when it alone passes the limit.
 TEST(SessionStoreTest, StateBytesAreBounded) {

@@ -14,7 +14,7 @@ namespace sceneloc {
 namespace {
 
 TokenOwner Owner(const std::string& session = "robot-1", uint32_t checksum = 0xabcdef01u) {
-  return {"robot-key", session, checksum, 4, 2, 2};
+  return {"robot-key", session, checksum, 4, 2};
 }
 
 SequenceState State() {
@@ -156,27 +156,51 @@ TEST(SessionTokenTest, OwnerChecked) {
   auto other_speeds = ParseSessionToken(bytes, faster, &parsed);
   ASSERT_TRUE(other_speeds.ok());
   EXPECT_EQ(*other_speeds, TokenFit::kOtherMap);
-  // And one that keeps fewer locations' speeds than the token holds.
-  TokenOwner fewer = Owner();
-  fewer.max_tracked = 1;
-  auto fewer_tracked = ParseSessionToken(bytes, fewer, &parsed);
-  ASSERT_TRUE(fewer_tracked.ok());
-  EXPECT_EQ(*fewer_tracked, TokenFit::kOtherMap);
 }
 
-// Location and speed counts that multiply past the token's size (forged, with a valid
-// checksum) are refused before anything is allocated.
-TEST(SessionTokenTest, CountsBeyondTheTokenAreRefused) {
-  std::string bytes = SerializeSessionToken(State(), Owner());
+// Counts that do not add up to the token's size (forged, with a valid checksum) are
+// refused before anything is allocated: each past the token's values, more tracked
+// locations than locations, and counts each in range whose total is not the size.
+TEST(SessionTokenTest, CountsThatDoNotFitTheTokenAreRefused) {
+  const auto parse = [](uint32_t locations, uint32_t speeds, uint32_t tracked) {
+    std::string bytes = SerializeSessionToken(State(), Owner());
+    std::memcpy(&bytes[8], &locations, 4);
+    std::memcpy(&bytes[12], &speeds, 4);
+    std::memcpy(&bytes[16], &tracked, 4);
+    const uint32_t crc = Crc32(bytes.data(), bytes.size() - 4);
+    std::memcpy(&bytes[bytes.size() - 4], &crc, 4);
+    SequenceState parsed;
+    return ParseSessionToken(bytes, Owner(), &parsed).status();
+  };
+  const auto refused = [](const Status& s) {
+    return s.code() == StatusCode::kInvalidArgument &&
+           s.message().find("size does not match") != std::string::npos;
+  };
   const uint32_t huge = 0x40000001u;
-  std::memcpy(&bytes[8], &huge, 4);   // locations
-  std::memcpy(&bytes[12], &huge, 4);  // speeds
-  std::memcpy(&bytes[16], &huge, 4);  // tracked: the products wrap in 32 bits
-  const uint32_t crc = Crc32(bytes.data(), bytes.size() - 4);
-  std::memcpy(&bytes[bytes.size() - 4], &crc, 4);
-  SequenceState parsed;
-  EXPECT_EQ(ParseSessionToken(bytes, Owner(), &parsed).status().code(),
-            StatusCode::kInvalidArgument);
+  EXPECT_TRUE(refused(parse(huge, huge, huge)));
+  EXPECT_TRUE(refused(parse(4, 2, 5)));  // more tracked locations than locations
+  // Each in range, totals not the token's 13 values (N + 1 + K + (K + 1) S = 5 + 2 + 6).
+  EXPECT_TRUE(refused(parse(2, 3, 1)));  // 3 + 1 + 6
+  EXPECT_TRUE(refused(parse(4, 1, 3)));  // 5 + 3 + 4
+  EXPECT_TRUE(parse(4, 2, 2).ok());      // the true counts: the refusals are the size's
+}
+
+// A token that tracks another number of locations than this server's filter keeps (a
+// fleet whose tracked_locations is being changed) continues: the next frame compacts it.
+TEST(SessionTokenTest, AnyNumberOfTrackedLocationsFits) {
+  SequenceState none = State();
+  none.tracked.clear();
+  none.speeds = {0.5f, 0.5f};
+  SequenceState all = State();
+  all.tracked = {0, 1, 2, 3};
+  all.speeds = {0.5f, 0.5f, 0.5f, 0.5f, 0.25f, 0.75f, 1.0f, 0.0f, 0.5f, 0.5f};
+  for (const SequenceState& state : {none, all}) {
+    SequenceState parsed;
+    const auto fit = ParseSessionToken(SerializeSessionToken(state, Owner()), Owner(), &parsed);
+    ASSERT_TRUE(fit.ok()) << fit.status().ToString();
+    EXPECT_EQ(*fit, TokenFit::kFits);
+    EXPECT_EQ(parsed.tracked, state.tracked);
+  }
 }
 
 }  // namespace
