@@ -70,6 +70,26 @@ nlohmann::json QueriesJson(const sl::SetResult& r) {
   return out;
 }
 
+// The session on every walk (sequence_eval.h StandardWalks) and the kidnapped robot.
+nlohmann::json WalksJson(const sl::SetResult& r) {
+  nlohmann::json walks = nlohmann::json::object();
+  for (const sl::WalkSummary& w : r.walks) {
+    walks[w.name] = {{"steps", w.steps},
+                     {"rate", w.rate},
+                     {"ece", w.ece},
+                     {"ece_floor", w.ece_floor},
+                     {"localised", w.localised},
+                     {"localised_precision", w.localised_precision}};
+  }
+  return {{"walks", walks},
+          {"kidnap",
+           {{"segments", r.kidnap.segments},
+            {"seeds", r.kidnap.seeds},
+            {"jumps", r.kidnap.jumps},
+            {"frames_to_correct_median", r.kidnap.median},
+            {"frames_to_correct_worst", r.kidnap.worst}}}};
+}
+
 nlohmann::json SetJson(const sl::SetResult& r) {
   nlohmann::json methods;
   for (const Row& row : Rows(r)) methods[row.method] = MethodJson(*row.summary);
@@ -88,7 +108,33 @@ nlohmann::json SetJson(const sl::SetResult& r) {
            {{"frames", r.negatives},
             {"accepted", r.negatives_accepted},
             {"max_confidence", r.negatives_max_confidence}}},
+          {"sessions", WalksJson(r)},
           {"per_query", QueriesJson(r)}};
+}
+
+// The session's ±tolerance rate on every walk, one column per set, then the kidnapped
+// robot's frames to a correct answer (median / worst).
+void PrintWalks(const std::vector<sl::SetResult>& results) {
+  if (results.empty() || results[0].walks.empty()) return;
+  std::printf("\nsessions on walks (answers within the tolerance; LOCALISED precision)\n%-16s",
+              "walk");
+  for (const sl::SetResult& r : results) std::printf(" %15s", r.set.name.c_str());
+  std::printf("\n");
+  for (size_t w = 0; w < results[0].walks.size(); ++w) {
+    std::printf("%-16s", results[0].walks[w].name.c_str());
+    for (const sl::SetResult& r : results) {
+      std::printf("   %5.3f (%5.3f)", r.walks[w].rate, r.walks[w].localised_precision);
+    }
+    std::printf("\n");
+  }
+  std::printf("%-16s", "kidnap med/worst");
+  for (const sl::SetResult& r : results) {
+    std::printf(" %15s", (std::to_string(static_cast<int>(r.kidnap.median)) + " / " +
+                          std::to_string(r.kidnap.worst))
+                             .c_str());
+  }
+  std::printf("\n");
+  std::fflush(stdout);
 }
 
 void PrintHeader() {
@@ -302,6 +348,7 @@ int RunSuite(const Args& a, const sl::SuiteSettings& settings,
     results.push_back(std::move(result).value());
   }
   PrintConfidenceTable(results, settings.match.min_confidence);
+  PrintWalks(results);
   if (sl::Status w = sl::WriteReliabilityDiagram(panels, a.out_dir + "/reliability.png"); !w.ok()) {
     return Fail(w.message());
   }

@@ -4,7 +4,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <set>
+#include <string>
+#include <vector>
 
 #include "tests/support/test_map.h"
 
@@ -41,23 +44,31 @@ TEST(KidnapOrderTest, Reversed) {
   EXPECT_EQ(KidnapOrder(100, 5, 3, true), kidnap);
 }
 
-// A session over synthetic single-frame outcomes: the filtered answers replace ours, and a
-// kidnap's jumps are each counted with the frames it took to be right again.
-TEST(RunSequenceTest, FiltersAndCountsRelocalisation) {
-  const Map map = test::MakeRandomMap(60, 200, 5);
+// Single-frame outcomes of 60 queries of a 60-location route, query q at location q: a
+// peak there, except that every `fooled`-th frame alone points 30 locations away (0: none
+// fooled) and, with `truth_offset`, the truth is that far from the evidence.
+std::vector<QueryOutcome> SyntheticOutcomes(int fooled = 5, int truth_offset = 0) {
   std::vector<QueryOutcome> outcomes(60);
   for (int q = 0; q < 60; ++q) {
-    outcomes[q].truth = q;
+    outcomes[q].truth = (q + truth_offset) % 60;
     outcomes[q].in_map = 0.95;
     outcomes[q].location_scores.resize(60);
     for (int l = 0; l < 60; ++l) {
       const double d = l - q;
       outcomes[q].location_scores[l] = static_cast<float>(4 * std::exp(-d * d / 2));
     }
-    // Every fifth frame alone points 30 locations away.
-    if (q % 5 == 4) outcomes[q].location_scores[(q + 30) % 60] = 6;
-    outcomes[q].ours.predicted = q % 5 == 4 ? (q + 30) % 60 : q;
+    const bool is_fooled = fooled > 0 && q % fooled == fooled - 1;
+    if (is_fooled) outcomes[q].location_scores[(q + 30) % 60] = 6;
+    outcomes[q].ours.predicted = is_fooled ? (q + 30) % 60 : q;
   }
+  return outcomes;
+}
+
+// A session over synthetic single-frame outcomes: the filtered answers replace ours, and a
+// kidnap's jumps are each counted with the frames it took to be right again.
+TEST(RunSequenceTest, FiltersAndCountsRelocalisation) {
+  const Map map = test::MakeRandomMap(60, 200, 5);
+  const std::vector<QueryOutcome> outcomes = SyntheticOutcomes();
   SequenceOptions options;
   const SequenceRun in_order = RunSequence(outcomes, map, options, KidnapOrder(60, 1, 1));
   ASSERT_EQ(in_order.filtered.size(), 60u);
@@ -82,6 +93,66 @@ TEST(RunSequenceTest, FiltersAndCountsRelocalisation) {
   const SequenceRun reversed_kidnap =
       RunSequence(outcomes, map, options, KidnapOrder(60, 4, 2, true));
   EXPECT_EQ(reversed_kidnap.relocalisation.to_correct.size(), 3u);
+}
+
+// The suite's walks over 10 queries, step by step.
+TEST(StandardWalksTest, Orders) {
+  std::map<std::string, std::vector<int>> walks;
+  for (const Walk& w : StandardWalks(10)) {
+    EXPECT_FALSE(w.description.empty());
+    walks[w.name] = w.order;
+  }
+  ASSERT_EQ(walks.size(), 7u);
+  EXPECT_EQ(walks["in_order"], (std::vector<int>{0, 1, 2, 3, 4, 5, 6, 7, 8, 9}));
+  EXPECT_EQ(walks["reversed"], (std::vector<int>{9, 8, 7, 6, 5, 4, 3, 2, 1, 0}));
+  EXPECT_EQ(walks["there_and_back"],
+            (std::vector<int>{0, 1, 2, 3, 4, 5, 4, 3, 3, 4, 5, 6, 7, 8, 9}));
+  EXPECT_EQ(walks["pace_2"], (std::vector<int>{0, 2, 4, 6, 8}));
+  EXPECT_EQ(walks["pace_3"], (std::vector<int>{0, 3, 6, 9}));
+  ASSERT_EQ(walks["slow_3"].size(), 30u);
+  EXPECT_EQ(walks["slow_3"][29], 9);
+  EXPECT_EQ(walks["slow_3"][3], 1);
+  EXPECT_EQ(walks["stop_10"],
+            (std::vector<int>{0, 1, 2, 3, 4, 5, 5, 5, 5, 5, 5, 5, 5, 5, 5, 6, 7, 8, 9}));
+  EXPECT_EQ(StandardWalks(1)[0].order, std::vector<int>{0});
+}
+
+// Every walk over evidence that points at the truth, with every fifth frame fooled, is
+// followed; over evidence 10 locations from the truth nothing is right, and what the session
+// LOCALISES is counted wrong.
+TEST(SummariseWalkTest, RatesPrecisionAndCalibration) {
+  const Map map = test::MakeRandomMap(60, 200, 5);
+  const SequenceOptions options;
+  for (const Walk& walk : StandardWalks(60)) {
+    SCOPED_TRACE(walk.name);
+    const WalkSummary s = SummariseWalk(walk, SyntheticOutcomes(), map, options);
+    EXPECT_EQ(s.name, walk.name);
+    EXPECT_EQ(s.steps, static_cast<int>(walk.order.size()));
+    EXPECT_GE(s.rate, 0.9);
+    EXPECT_GT(s.localised, 0);
+    EXPECT_GE(s.localised_precision, 0.95);
+    EXPECT_LE(s.ece, 0.2);
+    const WalkSummary off = SummariseWalk(walk, SyntheticOutcomes(0, 10), map, options);
+    EXPECT_EQ(off.rate, 0);
+    EXPECT_GT(off.localised, 0);
+    EXPECT_EQ(off.localised_precision, 0);
+    EXPECT_GE(off.ece, 0.5);  // sure of wrong answers
+  }
+}
+
+// The kidnapped robot over seeds: every jump of every seed counted, each found again soon.
+TEST(SummariseKidnapsTest, EveryJumpOfEverySeed) {
+  const Map map = test::MakeRandomMap(60, 200, 5);
+  const KidnapSummary k = SummariseKidnaps(SyntheticOutcomes(), map, SequenceOptions(), 4, 3);
+  EXPECT_EQ(k.segments, 4);
+  EXPECT_EQ(k.seeds, 3);
+  EXPECT_EQ(k.jumps, 9);
+  EXPECT_LE(k.median, 2);
+  EXPECT_LE(k.worst, 5);
+  EXPECT_GE(k.worst, k.median);
+  const KidnapSummary lost =
+      SummariseKidnaps(SyntheticOutcomes(0, 10), map, SequenceOptions(), 4, 3);
+  EXPECT_EQ(lost.median, 15);  // never right: each segment's whole length
 }
 
 }  // namespace

@@ -305,6 +305,11 @@ StatusOr<SetResult> RunSet(const SuiteSet& set, const SuiteSettings& settings,
   result.session =
       SummariseMethod(run.filtered, Method::kOurs,
                       {settings.train.tolerance, settings.match.sequence.min_confidence});
+  for (const Walk& walk : StandardWalks(result.outcomes.size())) {
+    result.walks.push_back(SummariseWalk(walk, result.outcomes, ours.map, settings.match.sequence));
+  }
+  result.kidnap = SummariseKidnaps(result.outcomes, ours.map, settings.match.sequence,
+                                   SetResult::kKidnapSegments, SetResult::kKidnapSeeds);
   return result;
 }
 

@@ -16,6 +16,7 @@
 #include "common/matching/localiser.h"
 #include "common/util/status.h"
 #include "tools/eval/evaluation.h"
+#include "tools/eval/sequence_eval.h"
 
 namespace sceneloc {
 
@@ -62,6 +63,12 @@ struct SetResult {
   // at the session's min_confidence.
   MethodSummary session;
   std::vector<MethodOutcome> session_outcomes;
+  // The session on every walk of StandardWalks, and the kidnapped robot (5 segments, 5
+  // seeds), on the same single-frame evidence.
+  std::vector<WalkSummary> walks;
+  KidnapSummary kidnap;
+  static constexpr int kKidnapSegments = 5;
+  static constexpr int kKidnapSeeds = 5;
   // Frames of set.negative_dirs: how many our map would LOCALISE, and their highest
   // confidence.
   size_t negatives = 0;

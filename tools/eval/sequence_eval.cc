@@ -7,6 +7,7 @@
 
 #include "common/matching/sequence_filter.h"
 #include "common/util/timer.h"
+#include "tools/eval/confidence_metrics.h"
 
 namespace sceneloc {
 namespace {
@@ -74,6 +75,8 @@ SequenceRun RunSequence(const std::vector<QueryOutcome>& outcomes, const Map& ma
     o.ours.predicted = a.location;
     o.ours.confidence = static_cast<float>(a.probability);
     const bool correct = o.truth >= 0 && std::abs(a.location - o.truth) <= tolerance;
+    run.steps.push_back(
+        {q, a.location, a.probability, correct, a.decision == Decision::kLocalised});
     const bool localised = correct && a.decision == Decision::kLocalised;
     if (since_jump_correct >= 0) {
       if (correct) {
@@ -99,6 +102,84 @@ SequenceRun RunSequence(const std::vector<QueryOutcome>& outcomes, const Map& ma
     run.filter_ms_median = ms[ms.size() / 2];
   }
   return run;
+}
+
+std::vector<Walk> StandardWalks(size_t n) {
+  const int m = static_cast<int>(n);
+  std::vector<Walk> walks;
+  const auto add = [&walks](const char* name, const char* description, std::vector<int> order) {
+    walks.push_back({name, description, std::move(order)});
+  };
+  std::vector<int> in_order(n);
+  std::iota(in_order.begin(), in_order.end(), 0);
+  add("in_order", "the queries in route order", in_order);
+  add("reversed", "backing up the whole route",
+      std::vector<int>(in_order.rbegin(), in_order.rend()));
+  std::vector<int> there_and_back;
+  const int turn = m * 6 / 10, back_to = m * 2 / 10;
+  for (int q = 0; q < turn; ++q) there_and_back.push_back(q);
+  for (int q = turn - 2; q > back_to; --q) there_and_back.push_back(q);
+  for (int q = back_to + 1; q < m; ++q) there_and_back.push_back(q);
+  add("there_and_back", "to 60% of the route, back to 20%, on to the end", there_and_back);
+  for (const int pace : {2, 3}) {
+    std::vector<int> order;
+    for (int q = 0; q < m; q += pace) order.push_back(q);
+    add(pace == 2 ? "pace_2" : "pace_3",
+        pace == 2 ? "every 2nd query: twice the tour's pace" : "every 3rd query: three times",
+        order);
+  }
+  std::vector<int> slow;
+  for (int q = 0; q < m; ++q) slow.insert(slow.end(), 3, q);
+  add("slow_3", "each query 3 times: a third of the tour's pace", slow);
+  std::vector<int> stop(in_order.begin(), in_order.begin() + m / 2);
+  stop.insert(stop.end(), 10, m / 2);
+  for (int q = m / 2 + 1; q < m; ++q) stop.push_back(q);
+  add("stop_10", "standing 10 frames halfway", stop);
+  return walks;
+}
+
+WalkSummary SummariseWalk(const Walk& walk, const std::vector<QueryOutcome>& outcomes,
+                          const Map& map, const SequenceOptions& options) {
+  const SequenceRun run = RunSequence(outcomes, map, options, walk.order);
+  WalkSummary s;
+  s.name = walk.name;
+  s.steps = static_cast<int>(run.steps.size());
+  std::vector<float> confidence;
+  std::vector<bool> correct;
+  int localised_right = 0;
+  for (const SequenceStep& step : run.steps) {
+    confidence.push_back(static_cast<float>(step.probability));
+    correct.push_back(step.correct);
+    s.localised += step.localised ? 1 : 0;
+    localised_right += step.localised && step.correct ? 1 : 0;
+  }
+  if (s.steps == 0) return s;
+  const ConfidenceMetrics m = ComputeConfidenceMetrics(confidence, correct, options.min_confidence);
+  s.rate = m.accuracy;
+  s.ece = m.ece;
+  s.ece_floor = m.ece_floor;
+  s.localised_precision = s.localised > 0 ? static_cast<double>(localised_right) / s.localised : 1;
+  return s;
+}
+
+KidnapSummary SummariseKidnaps(const std::vector<QueryOutcome>& outcomes, const Map& map,
+                               const SequenceOptions& options, int segments, int seeds) {
+  KidnapSummary k;
+  k.segments = segments;
+  k.seeds = seeds;
+  std::vector<double> frames;
+  for (int seed = 1; seed <= seeds; ++seed) {
+    const SequenceRun run =
+        RunSequence(outcomes, map, options,
+                    KidnapOrder(outcomes.size(), segments, static_cast<uint32_t>(seed)));
+    for (const int f : run.relocalisation.to_correct) {
+      frames.push_back(f);
+      k.worst = std::max(k.worst, f);
+    }
+  }
+  k.jumps = static_cast<int>(frames.size());
+  if (!frames.empty()) k.median = ComputePercentiles(frames).median;
+  return k;
 }
 
 }  // namespace sceneloc
