@@ -107,6 +107,10 @@ SettingTable SequenceSettings(SequenceOptions* o) {
           .Range(0, 1)
           .Help("a location's evidence also counts x this per location for its band (0 = off)")
           .Flag("sequence-evidence-spread"),
+      Setting("sequence", "evidence_floor", &o->evidence_floor)
+          .Range(0, 0.99)
+          .Help("share of a frame's evidence treated as possibly uninformative (0 = off)")
+          .Flag("sequence-evidence-floor"),
       Setting("sequence", "min_confidence", &o->min_confidence)
           .Range(0, 1)
           .Help("session answers below this are UNKNOWN")

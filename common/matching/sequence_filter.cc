@@ -185,6 +185,14 @@ void SequenceFilter::Observe(const FrameEvidence& evidence, std::vector<float>* 
     const double offset = std::log(p_in) + std::log(static_cast<double>(n)) - std::log(z);
     for (int l = 0; l < n; ++l) log_lik[l] = (s[l] - top) / temperature_ + offset;
     if (!spread_.empty()) Spread(&log_lik);
+    const double floor = options_.evidence_floor;
+    if (floor > 0) {  // log((1 - floor) L + floor p_in), without overflow: log-sum-exp
+      const double a = std::log(1 - floor), b = std::log(floor * p_in);
+      for (int l = 0; l < n; ++l) {
+        const double x = a + log_lik[l], hi = std::max(x, b);
+        log_lik[l] = hi + std::log(std::exp(x - hi) + std::exp(b - hi));
+      }
+    }
   }
   log_lik[n] = std::log(1 - p_in);
   const double top = *std::max_element(log_lik.begin(), log_lik.end());

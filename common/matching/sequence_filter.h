@@ -23,7 +23,8 @@
 //             matches one tour view matches the views that overlap it, so it places the
 //             robot to within a few frames, and the speed keeps the pace between.
 //             evidence_weight < 1 tempers it: consecutive frames are not independent (the
-//             same look-alike fools both).
+//             same look-alike fools both). With evidence_floor f > 0 the likelihood ratio
+//             is (1 - f) L + f P(in map): a frame may be uninformative (off by default).
 //   answer:   the location with the most belief over every speed.
 // The speed is state because robots keep their pace and their direction, and the pace is
 // not the tour's: a robot sending frames faster than the tour was recorded moves a fraction

@@ -84,6 +84,8 @@ TEST(MatchSettingsTest, RangesAreTheDocumentedOnes) {
        1, -0.01, 1.01},
       {"sequence.evidence_spread",
        [](MatchOptions* o, double v) { o->sequence.evidence_spread = v; }, 0, 1, -0.01, 1.01},
+      {"sequence.evidence_floor", [](MatchOptions* o, double v) { o->sequence.evidence_floor = v; },
+       0, 0.99, -0.01, 1},
       {"sequence.evidence_weight",
        [](MatchOptions* o, double v) { o->sequence.evidence_weight = v; }, 1e-6, 1, 0, 1.5},
   };

@@ -343,6 +343,29 @@ TEST_F(SequenceFilterTest, TiesGoToTheLowerLocation) {
   EXPECT_EQ(state.tracked, first);
 }
 
+// With an evidence floor one misleading frame, however sure, costs the true place a bounded
+// factor: after a steady walk, a single frame that matches only a distant look-alike leaves
+// the session where the robot is, with more belief there than without the floor.
+TEST_F(SequenceFilterTest, EvidenceFloorBoundsOneMisleadingFrame) {
+  std::vector<double> kept;
+  for (const double floor : {0.0, 0.3}) {
+    options_.evidence_floor = floor;
+    const SequenceFilter filter = Filter();
+    SequenceState state;
+    for (int t = 0; t < 10; ++t) filter.Update(Frame(50 + t, 4), &state);
+    FrameEvidence fooled = Frame(150, 12);  // a confident frame of a place 90 away
+    const SequenceAnswer a = filter.Update(fooled, &state);
+    double near = 0;
+    for (int l = 57; l <= 63; ++l) near += state.location[l];
+    kept.push_back(near);
+    if (floor > 0) {
+      EXPECT_LE(std::abs(a.location - 60), 2);
+    }
+  }
+  EXPECT_GT(kept[1], kept[0]);
+  EXPECT_GT(kept[1], 0.5);
+}
+
 // A frame count carried in from a client stops at its largest value instead of wrapping.
 TEST_F(SequenceFilterTest, FrameCountSaturates) {
   const SequenceFilter filter = Filter();
