@@ -18,6 +18,20 @@ bool IsStartOfFrame(uint8_t marker) {
 // Markers without a length field: TEM and RST0..RST7.
 bool IsStandalone(uint8_t marker) { return marker == 0x01 || (marker >= 0xD0 && marker <= 0xD7); }
 
+// The segments libjpeg reads (or skips) by their length before the first scan: frames and
+// their tables (C0..CF), DNL, DQT, DRI, APP0..APP15 and COM. libjpeg refuses every other
+// marker there, so we do too: a marker we skipped by its length while libjpeg resynchronised
+// inside it is how a small frame header could hide the one the decoder uses.
+bool IsHeaderSegment(uint8_t marker) {
+  return (marker >= 0xC0 && marker <= 0xCF) || marker == 0xDB || marker == 0xDC || marker == 0xDD ||
+         (marker >= 0xE0 && marker <= 0xEF) || marker == 0xFE;
+}
+
+std::string Hex(uint8_t marker) {
+  static const char kDigits[] = "0123456789ABCDEF";
+  return std::string("0x") + kDigits[marker >> 4] + kDigits[marker & 0xF];
+}
+
 }  // namespace
 
 StatusOr<JpegDimensions> ReadJpegDimensions(std::string_view b) {
@@ -32,6 +46,11 @@ StatusOr<JpegDimensions> ReadJpegDimensions(std::string_view b) {
     const uint8_t marker = At(b, pos++);
     if (IsStandalone(marker)) continue;
     if (marker == 0xD9 || marker == 0xDA) break;  // end of image or start of scan: no frame
+    if (!IsHeaderSegment(marker)) {
+      // 0x00 included: libjpeg takes 0xFF00 for garbage and searches on for a marker.
+      return InvalidArgument("JPEG header is corrupt (marker " + Hex(marker) +
+                             " where a header segment should be)");
+    }
     if (pos + 2 > b.size()) break;
     const size_t length = static_cast<size_t>(Be16(b, pos));
     if (length < 2 || pos + length > b.size()) break;

@@ -28,7 +28,9 @@ int64_t EstimateDecodeBytes(const JpegDimensions& dims);
 // Walks the marker segments from SOI to the first start-of-frame (SOF0..SOF15 except
 // DHT, JPG and DAC) and returns its size. Errors (InvalidArgument): not a JPEG, a
 // segment running past the end, no frame header before the scan, a zero dimension (a
-// DNL-defined height is refused too). Never reads outside `bytes`.
+// DNL-defined height is refused too), a marker libjpeg would not read as a header segment
+// (it resynchronises past those, so skipping them by a length could hide the frame header
+// the decoder uses). Never reads outside `bytes`.
 StatusOr<JpegDimensions> ReadJpegDimensions(std::string_view bytes);
 
 // The number of scans (start-of-scan markers) in the whole JPEG, walking the marker

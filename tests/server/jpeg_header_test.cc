@@ -47,6 +47,62 @@ TEST(JpegHeaderTest, RefusesNonJpegAndTruncatedHeaders) {
   EXPECT_FALSE(ReadJpegDimensions(zero).ok());
 }
 
+// A frame header hidden where libjpeg resynchronises: 0xFF00 is garbage to libjpeg, which
+// searches on and finds the large JPEG inside; a parser that skipped "marker 0x00" by its
+// "length" would see only the small frame after it and let the large image through. The
+// header check must refuse what it cannot read the way the decoder does (the fuzz_jpeg
+// oracle found this).
+TEST(JpegHeaderTest, RefusesAFrameHiddenFromTheHeaderCheck) {
+  cv::Mat flat(150, 200, CV_8UC1, cv::Scalar(90));
+  std::vector<uchar> encoded;
+  cv::imencode(".jpg", flat, encoded);
+  const std::string large(encoded.begin(), encoded.end());
+  const std::string small = Encode(40, 30, 1);
+  const size_t hidden = large.size() - 2 + 2;  // the large JPEG after its SOI, plus the length
+  ASSERT_LT(hidden, 0xFF00u);
+  std::string smuggled = "\xff\xd8\xff";
+  smuggled += '\0';
+  smuggled += static_cast<char>(hidden >> 8);
+  smuggled += static_cast<char>(hidden & 0xFF);
+  smuggled += large.substr(2) + small.substr(2);
+
+  // The decoder reads the large frame (that is the danger), and the check refuses.
+  const cv::Mat decoded =
+      cv::imdecode(std::vector<uchar>(smuggled.begin(), smuggled.end()), cv::IMREAD_GRAYSCALE);
+  ASSERT_FALSE(decoded.empty());
+  EXPECT_EQ(decoded.cols, 200);
+  auto d = ReadJpegDimensions(smuggled);
+  ASSERT_FALSE(d.ok()) << "read " << d->width << "x" << d->height;
+  EXPECT_EQ(d.status().code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(d.status().message().find("marker 0x00"), std::string::npos) << d.status().ToString();
+
+  // Every marker libjpeg does not read as a header segment is refused in the same place; the
+  // ones it does read (an APP segment here) are skipped by their length as before.
+  for (int marker = 0x00; marker < 0xFF; ++marker) {
+    const bool segment = (marker >= 0xC0 && marker <= 0xCF) || marker == 0xDB || marker == 0xDC ||
+                         marker == 0xDD || (marker >= 0xE0 && marker <= 0xEF) || marker == 0xFE;
+    const bool standalone = marker == 0x01 || (marker >= 0xD0 && marker <= 0xD7);
+    if (segment || standalone || marker == 0xD9 || marker == 0xDA) continue;
+    std::string bytes = "\xff\xd8\xff";
+    bytes += static_cast<char>(marker);
+    bytes += std::string(
+                 "\x00\x04"
+                 "ab",
+                 4) +
+             small.substr(2);
+    EXPECT_FALSE(ReadJpegDimensions(bytes).ok()) << "marker " << marker;
+  }
+  std::string with_app = "\xff\xd8\xff\xe5";
+  with_app += std::string(
+                  "\x00\x04"
+                  "ab",
+                  4) +
+              small.substr(2);
+  auto app = ReadJpegDimensions(with_app);
+  ASSERT_TRUE(app.ok()) << app.status().ToString();
+  EXPECT_EQ(app->width, 40);
+}
+
 // Random bytes after a JPEG start marker never read out of bounds (run under ASAN) and
 // never report a zero size.
 TEST(JpegHeaderTest, RandomBytesAreSafe) {
