@@ -1,7 +1,9 @@
 // What a session costs per frame (common/matching/sequence_filter.h), against the number of
 // tour locations: the filter's Update on single-frame evidence of a walking robot, at 200
 // locations (the Gardens Point map) up to 10,000, with the fitted complexity. Also the
-// session store's memory for 1,000 live sessions of each size.
+// session store's memory for 1,000 live sessions of each size, and its throughput with one
+// and two threads updating their own sessions (frames of different sessions run in
+// parallel: compare items_per_second of threads:2 with threads:1).
 //
 //   sequence_filter_benchmark [benchmark flags]
 //   e.g. --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
@@ -10,6 +12,9 @@
 #include <benchmark/benchmark.h>
 
 #include <cmath>
+#include <map>
+#include <memory>
+#include <mutex>
 #include <random>
 
 #include "common/matching/sequence_filter.h"
@@ -84,6 +89,43 @@ void BM_ThousandSessions(benchmark::State& state) {
   state.counters["bytes_per_session"] = static_cast<double>(counts.memory_bytes) / counts.live;
 }
 BENCHMARK(BM_ThousandSessions)->Arg(200)->Arg(10000)->Unit(benchmark::kMillisecond);
+
+// One store shared by the benchmark's threads, each updating its own session with the real
+// filter: frames per second through SessionStore::Update. The robot walks a location a
+// frame over 256 frames and starts again (BM_FilterUpdate's evidence jumps n/64 locations a
+// frame, a kidnap each frame at 10,000 locations, which costs more).
+struct StoreFixture {
+  explicit StoreFixture(int n) : map(MakeMap(n)), filter(map, SequenceOptions{}) {
+    std::mt19937 rng(3);
+    for (int t = 0; t < 256; ++t) frames.push_back(Frame(n, (n / 4 + t) % n, &rng));
+  }
+  Map map;
+  SequenceFilter filter;
+  SessionStore store{SessionOptions{}};
+  std::vector<FrameEvidence> frames;
+};
+
+StoreFixture& SharedStore(int n) {
+  static std::mutex mutex;
+  static std::map<int, std::unique_ptr<StoreFixture>> fixtures;
+  std::lock_guard<std::mutex> lock(mutex);
+  auto& f = fixtures[n];
+  if (!f) f = std::make_unique<StoreFixture>(n);
+  return *f;
+}
+
+void BM_StoreThroughput(benchmark::State& state) {
+  StoreFixture& f = SharedStore(static_cast<int>(state.range(0)));
+  const std::string name = "robot-" + std::to_string(state.thread_index());
+  size_t t = 0;
+  for (auto _ : state) {
+    f.store.Update("key", "map", name, 1, {}, SessionStore::Clock::now(), [&](SequenceState* st) {
+      f.filter.Update(f.frames[t++ % f.frames.size()], st);
+    });
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_StoreThroughput)->Arg(200)->Arg(10000)->Threads(1)->Threads(2)->UseRealTime();
 
 }  // namespace
 }  // namespace sceneloc

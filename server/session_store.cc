@@ -47,70 +47,89 @@ Status SessionOptions::Validate() const {
 
 SessionStore::SessionStore(const SessionOptions& options) : options_(options) {}
 
+void SessionStore::Erase(std::unordered_map<std::string, Entry>::iterator it) {
+  state_bytes_ -= it->second.state_bytes;
+  lru_.erase(it->second.lru);
+  sessions_.erase(it);
+}
+
 void SessionStore::DropIdle(Clock::time_point now) {
   const auto timeout = std::chrono::duration<double>(options_.idle_timeout_s);
   while (!lru_.empty()) {
     const auto it = sessions_.find(lru_.back());
     if (now - it->second.last_used < timeout) break;
-    state_bytes_ -= BeliefBytes(it->second.state);
-    sessions_.erase(it);
-    lru_.pop_back();
+    Erase(it);
     ++expired_;
   }
 }
 
 void SessionStore::DropLeastRecentlyUsed() {
-  const auto it = sessions_.find(lru_.back());
-  state_bytes_ -= BeliefBytes(it->second.state);
-  sessions_.erase(it);
-  lru_.pop_back();
+  Erase(sessions_.find(lru_.back()));
   ++evicted_;
+}
+
+std::shared_ptr<SessionStore::Slot> SessionStore::Find(std::string key, Clock::time_point now) {
+  MutexLock lock(&mutex_);
+  DropIdle(now);
+  auto it = sessions_.find(key);
+  if (it == sessions_.end()) {
+    if (sessions_.size() >= static_cast<size_t>(options_.max_sessions)) DropLeastRecentlyUsed();
+    lru_.push_front(key);
+    it = sessions_.emplace(std::move(key), Entry{}).first;
+    it->second.slot = std::make_shared<Slot>();
+    it->second.lru = lru_.begin();
+  } else {
+    lru_.splice(lru_.begin(), lru_, it->second.lru);
+  }
+  it->second.last_used = now;
+  return it->second.slot;
+}
+
+void SessionStore::Recount(const std::string& key, const Slot* slot, size_t state_bytes) {
+  MutexLock lock(&mutex_);
+  const auto it = sessions_.find(key);
+  if (it == sessions_.end() || it->second.slot.get() != slot) return;  // dropped meanwhile
+  state_bytes_ = state_bytes_ - it->second.state_bytes + state_bytes;
+  it->second.state_bytes = state_bytes;
+  // Everything behind this session in lru_ was used less recently; never drop it here.
+  while (state_bytes_ > static_cast<size_t>(options_.max_state_bytes) && lru_.back() != key) {
+    DropLeastRecentlyUsed();
+  }
 }
 
 SessionStart SessionStore::Update(const std::string& client, const std::string& map,
                                   const std::string& name, uint64_t generation,
                                   const SessionSeed& seed, Clock::time_point now,
                                   const std::function<void(SequenceState*)>& step) {
-  std::string key = Key(client, map, name);
-  MutexLock lock(&mutex_);
-  DropIdle(now);
+  const std::string key = Key(client, map, name);
+  const std::shared_ptr<Slot> slot = Find(key, now);
   SessionStart start = SessionStart::kContinued;
-  auto it = sessions_.find(key);
-  if (it == sessions_.end()) {
-    if (sessions_.size() >= static_cast<size_t>(options_.max_sessions)) DropLeastRecentlyUsed();
-    lru_.push_front(key);
-    it = sessions_.emplace(std::move(key), Entry{}).first;
-    it->second.lru = lru_.begin();
-    start = SessionStart::kNew;
-  } else {
-    lru_.splice(lru_.begin(), lru_, it->second.lru);
-    if (it->second.generation != generation) start = SessionStart::kMapReloaded;
+  size_t state_bytes = 0;
+  {
+    MutexLock lock(&slot->mutex);
+    if (slot->fresh) {
+      start = SessionStart::kNew;
+    } else if (slot->generation != generation) {
+      start = SessionStart::kMapReloaded;
+    }
+    if (seed.reset) {
+      start = SessionStart::kReset;
+    } else if (seed.other_map) {
+      start = SessionStart::kMapReloaded;
+    } else if (seed.carried != nullptr) {
+      start = SessionStart::kContinued;
+    }
+    if (start != SessionStart::kContinued) {
+      slot->state = SequenceState{};
+    } else if (seed.carried != nullptr) {
+      slot->state = *seed.carried;
+    }
+    slot->generation = generation;
+    slot->fresh = false;
+    step(&slot->state);
+    state_bytes = BeliefBytes(slot->state);
   }
-  Entry& entry = it->second;
-  if (seed.reset) {
-    start = SessionStart::kReset;
-  } else if (seed.other_map) {
-    start = SessionStart::kMapReloaded;
-  } else if (seed.carried != nullptr) {
-    start = SessionStart::kContinued;
-  }
-  if (start != SessionStart::kContinued) {
-    state_bytes_ -= BeliefBytes(entry.state);
-    entry.state = SequenceState{};
-  } else if (seed.carried != nullptr) {
-    state_bytes_ -= BeliefBytes(entry.state);
-    entry.state = *seed.carried;
-    state_bytes_ += BeliefBytes(entry.state);
-  }
-  entry.generation = generation;
-  entry.last_used = now;
-  const size_t before = BeliefBytes(entry.state);
-  step(&entry.state);
-  state_bytes_ = state_bytes_ - before + BeliefBytes(entry.state);
-  // The one just updated is at the front of lru_: never dropped here.
-  while (state_bytes_ > static_cast<size_t>(options_.max_state_bytes) && lru_.size() > 1) {
-    DropLeastRecentlyUsed();
-  }
+  Recount(key, slot.get(), state_bytes);
   return start;
 }
 
@@ -118,11 +137,13 @@ SessionCounts SessionStore::Counts() const {
   MutexLock lock(&mutex_);
   SessionCounts c;
   c.live = sessions_.size();
-  // Per session: the state, the key twice (map node and LRU list node) and the nodes.
+  // Per session: the state, the key twice (map node and LRU list node), the slot with its
+  // shared_ptr control block, and the nodes.
   size_t keys = 0;
   for (const std::string& k : lru_) keys += 2 * k.capacity();
-  c.memory_bytes = state_bytes_ + keys +
-                   sessions_.size() * (sizeof(Entry) + sizeof(std::string) + 4 * sizeof(void*));
+  c.memory_bytes =
+      state_bytes_ + keys +
+      sessions_.size() * (sizeof(Entry) + sizeof(Slot) + sizeof(std::string) + 6 * sizeof(void*));
   c.evicted = evicted_;
   c.expired = expired_;
   return c;

@@ -12,16 +12,18 @@
 // a session survives eviction, expiry, a restart, and frames answered by another process
 // (README "Robot sessions" says why both).
 //
-// Thread-safe: Update may run on any number of threads at once; one mutex guards the
-// store, held for the filter's update: 39 µs a frame at 200 locations, 2.6 ms at 10,000
-// (docs/results.md), which bounds one server to some 380 session frames a second on maps
-// that large.
+// Thread-safe: Update may run on any number of threads at once. The store's mutex guards
+// the table of sessions and is held only to find, add or drop one; each session has its own
+// mutex, held for its filter update (39 µs a frame at 200 locations, 2.6 ms at 10,000:
+// docs/results.md), so frames of different sessions are filtered in parallel and frames of
+// one session one after the other.
 #pragma once
 
 #include <chrono>
 #include <cstdint>
 #include <functional>
 #include <list>
+#include <memory>
 #include <string>
 #include <unordered_map>
 
@@ -77,12 +79,13 @@ class SessionStore {
   explicit SessionStore(const SessionOptions& options);
 
   // Runs `step` on the state of session (client, map, name) at map generation `generation`,
-  // under the store's lock: on seed.carried when given; on a fresh state after a reset, a
-  // state of another map, for a session the store does not hold, or one that last ran on
+  // under that session's lock (not the store's): on seed.carried when given; on a fresh state after
+  // a reset, a state of another map, for a session the store does not hold, or one that last ran on
   // another generation of its map; on its stored state otherwise. Keeps the result. Drops
   // the sessions idle past the timeout and, for a new session when full or when the states
   // pass max_state_bytes, the least recently used. Returns how the session began (CONTINUED for a
-  // carried state).
+  // carried state). A session dropped while its frame is filtered loses that frame's state
+  // from the store (its reply still carries it).
   SessionStart Update(const std::string& client, const std::string& map, const std::string& name,
                       uint64_t generation, const SessionSeed& seed, Clock::time_point now,
                       const std::function<void(SequenceState*)>& step) EXCLUDES(mutex_);
@@ -90,15 +93,30 @@ class SessionStore {
   SessionCounts Counts() const EXCLUDES(mutex_);
 
  private:
+  // One session's filter state, shared by the table and the updates running on it (an
+  // update keeps it alive if the session is dropped meanwhile).
+  struct Slot {
+    Mutex mutex;
+    SequenceState state GUARDED_BY(mutex);
+    uint64_t generation GUARDED_BY(mutex) = 0;
+    bool fresh GUARDED_BY(mutex) = true;  // no frame filtered yet
+  };
   struct Entry {
-    SequenceState state;
-    uint64_t generation = 0;
+    std::shared_ptr<Slot> slot;
+    size_t state_bytes = 0;  // the slot's state as last counted into state_bytes_
     Clock::time_point last_used;
     std::list<std::string>::iterator lru;  // its place in lru_
   };
 
+  // The session's slot, added (dropping the least recently used when full) if new; marks it
+  // the most recently used.
+  std::shared_ptr<Slot> Find(std::string key, Clock::time_point now) EXCLUDES(mutex_);
+  // Counts the state `slot` now holds, if `key` still names it, and drops the least
+  // recently used others while the states pass max_state_bytes.
+  void Recount(const std::string& key, const Slot* slot, size_t state_bytes) EXCLUDES(mutex_);
   void DropIdle(Clock::time_point now) REQUIRES(mutex_);
   void DropLeastRecentlyUsed() REQUIRES(mutex_);
+  void Erase(std::unordered_map<std::string, Entry>::iterator it) REQUIRES(mutex_);
 
   // Constant after construction.
   const SessionOptions options_;

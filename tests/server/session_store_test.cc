@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <thread>
 #include <vector>
 
@@ -169,6 +170,79 @@ TEST(SessionStoreTest, ConcurrentUpdates) {
                  [&](SequenceState* state) { total += state->frames; });
   }
   EXPECT_EQ(total, static_cast<uint32_t>(kThreads * kFrames));
+}
+
+// Frames of different sessions are filtered at the same time (the store's lock is not held
+// for a filter update): each step waits for the other session's step to begin, which under
+// one lock would never happen. Frames of one session never overlap.
+TEST(SessionStoreTest, DifferentSessionsUpdateInParallel) {
+  SessionStore store(Options(10));
+  std::atomic<int> inside{0};
+  std::atomic<bool> overlapped[2] = {false, false};
+  std::vector<std::thread> threads;
+  for (int t = 0; t < 2; ++t) {
+    threads.emplace_back([&, t] {
+      store.Update("", "m", t == 0 ? "a" : "b", 1, {}, Clock::now(), [&](SequenceState* s) {
+        ++inside;
+        const auto deadline = Clock::now() + seconds(10);
+        while (inside.load() < 2 && Clock::now() < deadline) std::this_thread::yield();
+        overlapped[t] = inside.load() == 2;
+        ++s->frames;
+      });
+    });
+  }
+  for (auto& th : threads) th.join();
+  EXPECT_TRUE(overlapped[0]);
+  EXPECT_TRUE(overlapped[1]);
+
+  std::atomic<int> in_one{0};
+  std::atomic<int> most{0};
+  threads.clear();
+  for (int t = 0; t < 4; ++t) {
+    threads.emplace_back([&] {
+      for (int f = 0; f < 50; ++f) {
+        store.Update("", "m", "one", 1, {}, Clock::now(), [&](SequenceState* s) {
+          const int now_inside = ++in_one;
+          int seen = most.load();
+          while (now_inside > seen && !most.compare_exchange_weak(seen, now_inside)) {
+          }
+          std::this_thread::yield();
+          ++s->frames;
+          --in_one;
+        });
+      }
+    });
+  }
+  for (auto& th : threads) th.join();
+  EXPECT_EQ(most.load(), 1);
+  uint32_t frames = 0;
+  store.Update("", "m", "one", 1, {}, Clock::now(), [&](SequenceState* s) { frames = s->frames; });
+  EXPECT_EQ(frames, 200u);
+}
+
+// A session dropped while its frame is being filtered: the update finishes on the state it
+// holds, the store's count of state bytes stays exact, and the name starts again next time.
+TEST(SessionStoreTest, DroppedWhileUpdating) {
+  SessionOptions o = Options(1);
+  SessionStore store(o);
+  std::atomic<bool> in_step{false}, dropped{false};
+  std::thread slow([&] {
+    store.Update("", "m", "slow", 1, {}, Clock::now(), [&](SequenceState* s) {
+      in_step = true;
+      while (!dropped) std::this_thread::yield();
+      s->location.assign(1000, 1.0f);
+    });
+  });
+  while (!in_step) std::this_thread::yield();
+  // max_sessions 1: a new session drops "slow" while its step runs.
+  EXPECT_EQ(store.Update("", "m", "other", 1, {}, Clock::now(), Step), SessionStart::kNew);
+  dropped = true;
+  slow.join();
+  const SessionCounts counts = store.Counts();
+  EXPECT_EQ(counts.live, 1u);
+  EXPECT_EQ(counts.evicted, 1u);
+  EXPECT_LT(counts.memory_bytes, 1000 * sizeof(float));  // "slow"'s state is not counted
+  EXPECT_EQ(store.Update("", "m", "slow", 1, {}, Clock::now(), Step), SessionStart::kNew);
 }
 
 // Settings out of range are refused.
