@@ -32,6 +32,7 @@
 
 #include "common/features/extractor.h"
 #include "common/features/opencv_threads.h"
+#include "common/features/sift_describer.h"
 #include "common/map/map_io.h"
 #include "common/matching/localiser.h"
 #include "common/synthetic/tour_generator.h"
@@ -197,6 +198,21 @@ std::vector<Stage> MakeStages(Setup& s) {
        {}},
       {"extract: two passes (before), 1 thread",
        [&s, &eo](size_t i) { TwoPassExtract(s.f[i].gray, eo); },
+       {}},
+      {"context pass: SIFT compute (before), 1 thread",
+       [&s, &eo](size_t i) {
+         std::vector<cv::KeyPoint> k = ContextKeypoints(s.f[i].features, eo);
+         cv::Mat d;
+         cv::SIFT::create(eo.max_features, eo.octave_layers, eo.contrast_threshold,
+                          eo.edge_threshold, eo.sigma)
+             ->compute(s.f[i].gray, k, d);
+       },
+       {}},
+      {"context pass: own pyramid, 1 thread",
+       [&s, &eo](size_t i) {
+         DescribeSiftKeypoints(s.f[i].gray, ContextKeypoints(s.f[i].features, eo), eo.octave_layers,
+                               eo.sigma);
+       },
        {}},
       {"extract: 1 thread",
        [&s](size_t i) { Must(s.extractor->Extract(s.f[i].gray, s.f[i].target)); },

@@ -9,6 +9,8 @@
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
+#include "common/features/sift_describer.h"
+
 namespace sceneloc {
 
 SettingTable ExtractorSettings(ExtractorOptions* o, const std::string& section) {
@@ -164,18 +166,27 @@ cv::Mat Equalise(const cv::Mat& gray, double clip) {
 // context_scale times its size, read off the pyramid octave that holds that scale
 // (ContextKeypoint). At a context_scale of 2 or more no keypoint stays below octave 0, so
 // their pyramid starts at the working frame itself, a quarter of the pixels of the
-// detection pyramid's doubled base: the second pass costs the descriptors and little else.
+// detection pyramid's doubled base, and holds only the images they are read from, with
+// each pixel's gradient computed once (sift_describer.h): the second pass costs little
+// more than the histograms.
 cv::Mat ContextDescriptors(cv::SIFT* sift, const cv::Mat& gray,
                            const std::vector<cv::KeyPoint>& detected, const std::vector<int>& kept,
-                           double context_scale, int octave_layers) {
+                           double context_scale, int octave_layers, double sigma) {
   const size_t n = kept.size();
   std::vector<cv::KeyPoint> wide;
   wide.reserve(n);
   const int top = TopContextOctave(gray.cols, gray.rows);
   for (const int i : kept)
     wide.push_back(ContextKeypoint(detected[i], context_scale, top, octave_layers));
+  const bool above_base = std::all_of(wide.begin(), wide.end(),
+                                      [](const cv::KeyPoint& k) { return UnpackOctave(k) >= 0; });
   cv::Mat context;
-  if (n > 0) sift->compute(gray, wide, context);
+  if (above_base) {
+    context = DescribeSiftKeypoints(gray, wide, octave_layers, sigma);
+  } else if (n > 0) {
+    // Below 2x some stay on the doubled base, which only SIFT's own pyramid builds.
+    sift->compute(gray, wide, context);
+  }
   CV_Assert(wide.size() == n && context.rows == static_cast<int>(n));
   return context;
 }
@@ -262,8 +273,9 @@ class SiftExtractor final : public FeatureExtractor {
     // detectAndCompute keeps keypoints and descriptor rows one-to-one; check, not assume.
     CV_Assert(local.rows == static_cast<int>(detected.size()));
     const std::vector<int> kept = StrongestFirst(detected, options_.max_features);
-    const cv::Mat context = ContextDescriptors(sift.get(), gray, detected, kept,
-                                               options_.context_scale, options_.octave_layers);
+    const cv::Mat context =
+        ContextDescriptors(sift.get(), gray, detected, kept, options_.context_scale,
+                           options_.octave_layers, options_.sigma);
     FeatureSet set = PackFeatures(detected, kept, local, context, gray.size());
     NormaliseDescriptors(options_.root_sift, &set);
     if (!target.holistic.empty()) {
@@ -281,6 +293,17 @@ class SiftExtractor final : public FeatureExtractor {
 
 std::unique_ptr<FeatureExtractor> FeatureExtractor::Create(const ExtractorOptions& options) {
   return std::make_unique<SiftExtractor>(options);
+}
+
+std::vector<cv::KeyPoint> ContextKeypoints(const FeatureSet& set, const ExtractorOptions& options) {
+  const int top = TopContextOctave(set.image_width, set.image_height);
+  std::vector<cv::KeyPoint> wide;
+  wide.reserve(set.keypoints.size());
+  for (const Keypoint& k : set.keypoints) {
+    const cv::KeyPoint detected(k.x, k.y, k.size, k.angle, k.response, k.octave);
+    wide.push_back(ContextKeypoint(detected, options.context_scale, top, options.octave_layers));
+  }
+  return wide;
 }
 
 StatusOr<cv::Mat> ReadImageFile(const std::string& path) {

@@ -14,6 +14,7 @@
 #include <memory>
 #include <opencv2/core.hpp>
 #include <string>
+#include <vector>
 
 #include "common/features/feature_set.h"
 #include "common/features/holistic.h"
@@ -93,6 +94,12 @@ class FeatureExtractor {
   StatusOr<FeatureSet> ExtractTour(const cv::Mat& image) const;
   virtual const ExtractorOptions& options() const = 0;
 };
+
+// The context keypoint of each of `set`'s keypoints: the same point at context_scale times
+// its size, with OpenCV's KeyPoint::octave packing the pyramid octave and layer that its
+// context descriptor is read from (extractor.cc, ContextKeypoint). Extract describes these;
+// exposed for benchmarks and tests.
+std::vector<cv::KeyPoint> ContextKeypoints(const FeatureSet& set, const ExtractorOptions& options);
 
 // Reads an image file; a missing, unreadable or non-image file is an error naming it.
 StatusOr<cv::Mat> ReadImageFile(const std::string& path);

@@ -165,6 +165,29 @@ TEST(ExtractorTest, ContextIsThePointAtTwiceTheSize) {
   }
 }
 
+// The context descriptors are SIFT's own descriptors of the context keypoints, though read
+// from a pyramid of their own (sift_describer.h): OpenCV's SIFT::compute of the same points
+// agrees with each of them.
+TEST(ExtractorTest, ContextDescriptorsAreSiftsOfTheContextKeypoints) {
+  const Frame frame = TourFrame();
+  for (const int layers : {3, 5}) {
+    ExtractorOptions o;
+    o.octave_layers = layers;
+    auto f = FeatureExtractor::Create(o)->ExtractTour(frame.image);
+    ASSERT_TRUE(f.ok()) << f.status().ToString();
+    std::vector<cv::KeyPoint> wide = ContextKeypoints(*f, o);
+    cv::Mat sift;
+    cv::SIFT::create(o.max_features, layers, o.contrast_threshold, o.edge_threshold, o.sigma)
+        ->compute(frame.gray, wide, sift);
+    ASSERT_EQ(sift.rows, f->size());
+    int close = 0;
+    for (int i = 0; i < f->size(); ++i) {
+      close += Cosine(f->context.row(i).data(), sift.ptr<float>(i)) > 0.999f;
+    }
+    EXPECT_GE(close, f->size() * 99 / 100) << layers << " layers";
+  }
+}
+
 // max_features is exact and keeps the strongest responses.
 TEST(ExtractorTest, KeepsExactlyTheStrongest) {
   const Frame frame = TourFrame();

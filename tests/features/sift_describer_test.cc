@@ -1,0 +1,143 @@
+#include "common/features/sift_describer.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <opencv2/features2d.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <vector>
+
+#include "common/synthetic/tour_generator.h"
+
+namespace sceneloc {
+namespace {
+
+// A 480x270 grey frame of the generated tour (what the extractor works on).
+cv::Mat TourGray() {
+  TourOptions tour;
+  tour.num_locations = 1;
+  auto jpegs = RenderTourJpegs(tour, kTrainingPass);
+  EXPECT_TRUE(jpegs.ok());
+  const std::string& jpeg = (*jpegs)[0];
+  const cv::Mat image =
+      cv::imdecode(std::vector<uchar>(jpeg.begin(), jpeg.end()), cv::IMREAD_GRAYSCALE);
+  cv::Mat gray;
+  cv::resize(image, gray, cv::Size(480, 270), 0, 0, cv::INTER_AREA);
+  return gray;
+}
+
+double Cosine(const float* a, const float* b) {
+  double ab = 0, aa = 0, bb = 0;
+  for (int i = 0; i < 128; ++i) {
+    ab += a[i] * b[i];
+    aa += a[i] * a[i];
+    bb += b[i] * b[i];
+  }
+  return aa > 0 && bb > 0 ? ab / std::sqrt(aa * bb) : 0;
+}
+
+// SIFT's keypoints of the frame at octave 0 and above, on their own layers, and the same at
+// twice the size on layer 0 one octave up (the extractor's context keypoints).
+std::vector<cv::KeyPoint> Keypoints(const cv::Mat& gray, int layers) {
+  std::vector<cv::KeyPoint> detected;
+  cv::SIFT::create(0, layers)->detect(gray, detected);
+  std::vector<cv::KeyPoint> out;
+  for (const cv::KeyPoint& k : detected) {
+    const int octave = static_cast<int8_t>(k.octave & 0xff);
+    if (octave >= 0) out.push_back(k);
+    cv::KeyPoint wide = k;
+    wide.size *= 2;
+    wide.octave = (k.octave & ~0xffff) | ((octave + 1) & 0xff);
+    if (octave + 1 <= 3) out.push_back(wide);
+  }
+  return out;
+}
+
+struct Agreement {
+  double mean = 0;
+  double share_close = 0;  // of descriptors with cosine above 0.98
+  double share_equal = 0;  // of descriptors equal in every value
+};
+
+Agreement CompareWithOpenCv(const cv::Mat& gray, const std::vector<cv::KeyPoint>& keypoints,
+                            int layers) {
+  const cv::Mat ours = DescribeSiftKeypoints(gray, keypoints, layers, 1.6);
+  std::vector<cv::KeyPoint> theirs_keypoints = keypoints;
+  cv::Mat theirs;
+  cv::SIFT::create(0, layers)->compute(gray, theirs_keypoints, theirs);
+  EXPECT_EQ(ours.rows, static_cast<int>(keypoints.size()));
+  EXPECT_EQ(theirs.rows, ours.rows);
+  Agreement a;
+  for (int i = 0; i < ours.rows; ++i) {
+    const double c = Cosine(ours.ptr<float>(i), theirs.ptr<float>(i));
+    a.mean += c;
+    a.share_close += c > 0.98;
+    a.share_equal += cv::norm(ours.row(i), theirs.row(i), cv::NORM_INF) == 0;
+  }
+  a.mean /= ours.rows;
+  a.share_close /= ours.rows;
+  a.share_equal /= ours.rows;
+  return a;
+}
+
+// The descriptor is SIFT's: on every keypoint of a frame, at every octave and layer SIFT
+// uses, ours and OpenCV's agree up to the rounding of the blur (one Gaussian per image
+// here, a chain of them in SIFT). A lost rotation, a wrong scale or octave, a misplaced
+// histogram cell drops the agreement far below these figures (ContextIsNotTheLocal...).
+TEST(SiftDescriberTest, AgreesWithOpenCvSift) {
+  const cv::Mat gray = TourGray();
+  for (const int layers : {3, 5}) {
+    const std::vector<cv::KeyPoint> keypoints = Keypoints(gray, layers);
+    ASSERT_GT(keypoints.size(), 300u);
+    const Agreement a = CompareWithOpenCv(gray, keypoints, layers);
+    std::printf("%d layers: %zu keypoints, mean cosine %.6f, above 0.98 %.4f, equal %.4f\n", layers,
+                keypoints.size(), a.mean, a.share_close, a.share_equal);
+    EXPECT_GT(a.mean, 0.995) << layers << " layers";
+    EXPECT_GT(a.share_close, 0.97) << layers << " layers";
+  }
+}
+
+// Windows that leave the image, windows larger than it (the radius is clipped to the
+// image's diagonal), every octave and angle: still SIFT's descriptor.
+TEST(SiftDescriberTest, WindowsAtTheBorderAndLargerThanTheImage) {
+  const cv::Mat gray = TourGray();
+  std::vector<cv::KeyPoint> keypoints;
+  for (const cv::Point2f p :
+       {cv::Point2f(0, 0), cv::Point2f(479, 269), cv::Point2f(3.4f, 200), cv::Point2f(240, 135)}) {
+    for (const float size : {6.f, 40.f, 900.f}) {
+      for (const float angle : {0.f, 45.f, 359.99f}) {
+        for (int octave = 0; octave <= 3; ++octave) {
+          keypoints.emplace_back(p, size * static_cast<float>(1 << octave), angle, 0.f,
+                                 ((octave % 3) << 8) | octave);
+        }
+      }
+    }
+  }
+  const cv::Mat ours = DescribeSiftKeypoints(gray, keypoints, 3, 1.6);
+  cv::Mat theirs;
+  cv::SIFT::create()->compute(gray, keypoints, theirs);
+  ASSERT_EQ(theirs.rows, ours.rows);
+  for (int i = 0; i < ours.rows; ++i) {
+    EXPECT_GT(Cosine(ours.ptr<float>(i), theirs.ptr<float>(i)), 0.999)
+        << keypoints[static_cast<size_t>(i)].pt << " size "
+        << keypoints[static_cast<size_t>(i)].size << " octave " << i % 4;
+  }
+}
+
+TEST(SiftDescriberTest, NoKeypointsNoRows) {
+  const cv::Mat d = DescribeSiftKeypoints(TourGray(), {}, 3, 1.6);
+  EXPECT_EQ(d.rows, 0);
+  EXPECT_EQ(d.cols, 128);
+}
+
+// The doubled base (octave -1) is SIFT's own pyramid's; asking for it here is a caller's
+// mistake, caught, not read out of bounds.
+TEST(SiftDescriberTest, RefusesTheDoubledBase) {
+  const std::vector<cv::KeyPoint> below{cv::KeyPoint(10, 10, 4, 0, 0, 0xff | (1 << 8))};
+  EXPECT_THROW(DescribeSiftKeypoints(TourGray(), below, 3, 1.6), cv::Exception);
+}
+
+}  // namespace
+}  // namespace sceneloc
