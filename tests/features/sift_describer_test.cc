@@ -9,7 +9,9 @@
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
+#include "common/features/opencv_threads.h"
 #include "common/synthetic/tour_generator.h"
+#include "common/util/thread_pool.h"
 
 namespace sceneloc {
 namespace {
@@ -137,6 +139,20 @@ TEST(SiftDescriberTest, NoKeypointsNoRows) {
 TEST(SiftDescriberTest, RefusesTheDoubledBase) {
   const std::vector<cv::KeyPoint> below{cv::KeyPoint(10, 10, 4, 0, 0, 0xff | (1 << 8))};
   EXPECT_THROW(DescribeSiftKeypoints(TourGray(), below, 3, 1.6), cv::Exception);
+}
+
+// Keypoints are described in parallel on the pool's idle threads (opencv_threads.h): the
+// same values as on one thread, every row where it belongs.
+TEST(SiftDescriberTest, OnThePoolAsOnOneThread) {
+  const cv::Mat gray = TourGray();
+  const std::vector<cv::KeyPoint> keypoints = Keypoints(gray, 3);
+  const cv::Mat serial = DescribeSiftKeypoints(gray, keypoints, 3, 1.6);
+  ThreadPool pool(2);
+  OpenCvOnThreadPool routed(&pool);
+  for (int run = 0; run < 3; ++run) {
+    const cv::Mat pooled = DescribeSiftKeypoints(gray, keypoints, 3, 1.6);
+    EXPECT_EQ(cv::norm(serial, pooled, cv::NORM_INF), 0) << run;
+  }
 }
 
 }  // namespace
