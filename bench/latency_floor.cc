@@ -180,16 +180,16 @@ std::vector<Stage> MakeStages(Setup& s) {
     const FeatureSet features = Must(s.extractor->Extract(gray, f.target));
     Must(Localise(features, s.in.map, s.match, pool));
   };
+  auto floor = [&s, &eo](size_t i) {
+    auto sift =
+        cv::SIFT::create(eo.max_features, 3, eo.contrast_threshold, eo.edge_threshold, eo.sigma);
+    std::vector<cv::KeyPoint> k;
+    cv::Mat d;
+    sift->detectAndCompute(s.f[i].gray, cv::noArray(), k, d);
+  };
   return {
-      {"floor: SIFT detectAndCompute, 1 thread",
-       [&s, &eo](size_t i) {
-         auto sift = cv::SIFT::create(eo.max_features, 3, eo.contrast_threshold, eo.edge_threshold,
-                                      eo.sigma);
-         std::vector<cv::KeyPoint> k;
-         cv::Mat d;
-         sift->detectAndCompute(s.f[i].gray, cv::noArray(), k, d);
-       },
-       {}},
+      {"floor: SIFT detectAndCompute, 1 thread", floor, {}},
+      {"floor on a pool of 2 [pool]", floor, {}},
       {"decode: colour, grey, resize (before)",
        [&s](size_t i) { FullDecode(s.in.jpegs[i], s.f[i].target); },
        {}},
