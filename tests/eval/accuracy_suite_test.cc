@@ -30,6 +30,9 @@ TEST(AccuracySuiteTest, QueryChangesHaveTheirNames) {
   EXPECT_STREQ(QueryChangeName(QueryChange::kDarker), "darker");
   EXPECT_STREQ(QueryChangeName(QueryChange::kJpeg), "jpeg");
   EXPECT_STREQ(QueryChangeName(QueryChange::kBlur), "blur");
+  EXPECT_STREQ(QueryChangeName(QueryChange::kZoom), "zoom");
+  EXPECT_STREQ(QueryChangeName(QueryChange::kSensor43), "sensor_4_3");
+  EXPECT_STREQ(QueryChangeName(QueryChange::kRoll), "roll");
 }
 
 std::vector<std::string> SetNames(const std::vector<SuiteSet>& sets) {
@@ -38,7 +41,7 @@ std::vector<std::string> SetNames(const std::vector<SuiteSet>& sets) {
   return names;
 }
 
-// With every folder present: all eight sets in order, the generated variants over the
+// With every folder present: all eleven sets in order, the generated variants over the
 // Gardens Point day queries, and the other data set's folders as negatives.
 TEST(AccuracySuiteTest, DevelopmentSuiteOfAFullDataFolder) {
   const test::ScratchDir data("suite");
@@ -48,19 +51,21 @@ TEST(AccuracySuiteTest, DevelopmentSuiteOfAFullDataFolder) {
   }
   const std::string root = data.path().string();
   const std::vector<SuiteSet> sets = DevelopmentSuite(root);
-  EXPECT_EQ(SetNames(sets), (std::vector<std::string>{"gp_day", "gp_night_same", "gp_night_other",
-                                                      "corridor", "gp_day_smaller", "gp_day_darker",
-                                                      "gp_day_jpeg", "gp_day_blur"}));
-  ASSERT_EQ(sets.size(), 8u);
+  EXPECT_EQ(SetNames(sets),
+            (std::vector<std::string>{"gp_day", "gp_night_same", "gp_night_other", "corridor",
+                                      "gp_day_smaller", "gp_day_darker", "gp_day_jpeg",
+                                      "gp_day_blur", "gp_day_zoom", "gp_day_4_3", "gp_day_roll"}));
+  ASSERT_EQ(sets.size(), 11u);
   EXPECT_EQ(sets[0].tour_dir, root + "/gardens_point/day_left");
   EXPECT_EQ(sets[0].queries_dir, root + "/gardens_point/day_right");
   EXPECT_EQ(sets[0].negative_dirs,
             (std::vector<std::string>{root + "/corridor/ref", root + "/corridor/query"}));
   EXPECT_EQ(sets[1].tour_limit, 100);
   EXPECT_EQ(sets[3].negative_dirs.size(), 3u);
-  const QueryChange changes[] = {QueryChange::kSmaller, QueryChange::kDarker, QueryChange::kJpeg,
-                                 QueryChange::kBlur};
-  for (int i = 0; i < 4; ++i) {
+  const QueryChange changes[] = {
+      QueryChange::kSmaller, QueryChange::kDarker,   QueryChange::kJpeg, QueryChange::kBlur,
+      QueryChange::kZoom,    QueryChange::kSensor43, QueryChange::kRoll};
+  for (int i = 0; i < 7; ++i) {
     EXPECT_EQ(sets[4 + i].change, changes[i]) << sets[4 + i].name;
     EXPECT_EQ(sets[4 + i].queries_dir, sets[0].queries_dir);
   }
@@ -73,8 +78,9 @@ TEST(AccuracySuiteTest, DevelopmentSuiteLeavesOutWhatIsMissing) {
   fs::create_directories(data.path() / "gardens_point/day_left");
   fs::create_directories(data.path() / "gardens_point/day_right");
   const std::vector<SuiteSet> sets = DevelopmentSuite(data.path().string());
-  EXPECT_EQ(SetNames(sets), (std::vector<std::string>{"gp_day", "gp_day_smaller", "gp_day_darker",
-                                                      "gp_day_jpeg", "gp_day_blur"}));
+  EXPECT_EQ(SetNames(sets),
+            (std::vector<std::string>{"gp_day", "gp_day_smaller", "gp_day_darker", "gp_day_jpeg",
+                                      "gp_day_blur", "gp_day_zoom", "gp_day_4_3", "gp_day_roll"}));
   for (const SuiteSet& s : sets) EXPECT_TRUE(s.negative_dirs.empty()) << s.name;
 }
 
@@ -163,7 +169,8 @@ double Sharpness(const cv::Mat& image) {
 }
 
 // Each change is written once as JPEG files under the cache, and the changed queries are
-// extracted in the map's frame: a third of the size, darker, blurred, or more compressed.
+// extracted in the map's frame: a third of the size, darker, blurred, more compressed, or
+// seen through a narrower lens, a 4:3 sensor or a rolled camera.
 TEST_F(SuiteRunTest, GeneratedVariantsChangeTheQueries) {
   const std::string query = set_.queries_dir + "/" + TourImageName(1);
   const cv::Mat original = cv::imread(query);
@@ -184,6 +191,11 @@ TEST_F(SuiteRunTest, GeneratedVariantsChangeTheQueries) {
   EXPECT_EQ(smaller.rows, cvRound(original.rows / 3.0));
   EXPECT_LT(cv::mean(load(QueryChange::kDarker))[1], 0.5 * cv::mean(original)[1]);
   EXPECT_LT(Sharpness(load(QueryChange::kBlur)), 0.5 * Sharpness(original));
+  EXPECT_EQ(load(QueryChange::kZoom).size(),
+            cv::Size(original.cols * 8 / 10, original.rows * 8 / 10));
+  EXPECT_EQ(load(QueryChange::kSensor43).size(), cv::Size(original.rows * 4 / 3, original.rows));
+  EXPECT_EQ(load(QueryChange::kRoll).size(),
+            cv::Size(original.cols * 10 / 12, original.rows * 10 / 12));
   EXPECT_EQ(load(QueryChange::kJpeg).size(), original.size());
   EXPECT_LT(fs::file_size(VariantPath(set_, context_, 1)), fs::file_size(query));
 

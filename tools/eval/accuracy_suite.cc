@@ -46,6 +46,25 @@ std::pair<cv::Mat, int> Change(const cv::Mat& image, QueryChange change, uint32_
       cv::GaussianBlur(image, out, cv::Size(), sigma);
       return {out, 95};
     }
+    case QueryChange::kZoom:  // a narrower lens: the centre 80% of the view, 1.25x larger
+      return {image(cv::Rect(image.cols / 10, image.rows / 10, image.cols * 8 / 10,
+                             image.rows * 8 / 10))
+                  .clone(),
+              95};
+    case QueryChange::kSensor43: {  // a 4:3 sensor of the same height: the sides cut off
+      const int width = std::min(image.cols, image.rows * 4 / 3);
+      return {image(cv::Rect((image.cols - width) / 2, 0, width, image.rows)).clone(), 95};
+    }
+    case QueryChange::kRoll: {  // mounted 5 degrees off level: rotated, the corners cut off
+      const cv::Mat turn = cv::getRotationMatrix2D(
+          cv::Point2f(static_cast<float>(image.cols) / 2, static_cast<float>(image.rows) / 2), 5,
+          1.0);
+      cv::warpAffine(image, out, turn, image.size(), cv::INTER_LINEAR);
+      return {out(cv::Rect(image.cols / 12, image.rows / 12, image.cols * 10 / 12,
+                           image.rows * 10 / 12))
+                  .clone(),
+              95};
+    }
     case QueryChange::kNone:
       break;
   }
@@ -139,6 +158,12 @@ const char* QueryChangeName(QueryChange change) {
       return "jpeg";
     case QueryChange::kBlur:
       return "blur";
+    case QueryChange::kZoom:
+      return "zoom";
+    case QueryChange::kSensor43:
+      return "sensor_4_3";
+    case QueryChange::kRoll:
+      return "roll";
   }
   return "";
 }
@@ -195,6 +220,30 @@ std::vector<SuiteSet> DevelopmentSuite(const std::string& data_dir) {
        gp + "/day_right",
        0,
        QueryChange::kBlur,
+       {}},
+      {"gp_day_zoom",
+       "generated: GP day queries through a narrower lens (the centre 80%)",
+       gp + "/day_left",
+       0,
+       gp + "/day_right",
+       0,
+       QueryChange::kZoom,
+       {}},
+      {"gp_day_4_3",
+       "generated: GP day queries from a 4:3 sensor of the same height",
+       gp + "/day_left",
+       0,
+       gp + "/day_right",
+       0,
+       QueryChange::kSensor43,
+       {}},
+      {"gp_day_roll",
+       "generated: GP day queries from a camera rolled 5 degrees",
+       gp + "/day_left",
+       0,
+       gp + "/day_right",
+       0,
+       QueryChange::kRoll,
        {}},
   };
   std::vector<SuiteSet> present;

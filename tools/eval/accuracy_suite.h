@@ -21,7 +21,9 @@
 namespace sceneloc {
 
 // How a variant changes each query image before it is extracted.
-enum class QueryChange { kNone, kSmaller, kDarker, kJpeg, kBlur };
+// kZoom, kSensor43 and kRoll are other cameras than the tour's: a narrower lens, a 4:3
+// sensor, a camera mounted off level.
+enum class QueryChange { kNone, kSmaller, kDarker, kJpeg, kBlur, kZoom, kSensor43, kRoll };
 const char* QueryChangeName(QueryChange change);
 
 struct SuiteSet {
@@ -37,8 +39,9 @@ struct SuiteSet {
 };
 
 // The development sets under `data_dir` (../shared/data): Gardens Point day, night on the
-// same and on the other side of the path, the corridor, and four generated variants of the
-// Gardens Point day queries. Sets whose folders are missing are left out.
+// same and on the other side of the path, the corridor, and seven generated variants of the
+// Gardens Point day queries (four of the image, three of the camera). Sets whose folders are
+// missing are left out.
 std::vector<SuiteSet> DevelopmentSuite(const std::string& data_dir);
 
 // The settings of the two engine rows: our defaults and the paper as printed.
