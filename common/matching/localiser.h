@@ -71,8 +71,10 @@ struct MatchOptions {
   double verify_angle_tolerance = 30;
   // Scale agreement: a verified candidate's inlier count is weighted by
   // exp(-m^2 / (2 s^2)), m the median log ratio of query to tour keypoint size over its
-  // inliers, s this setting (e.g. 0.2 ~ sizes within about 20%). 0 turns it off.
-  double verify_scale_sigma = 0.15;
+  // inliers, s this setting (e.g. 0.2 ~ sizes within about 20%). 0 turns it off. Wide
+  // enough for a robot camera that is not the tour's (another focal length scales every
+  // size alike); 0.15 lost much on such cameras (docs/results.md, "Other cameras").
+  double verify_scale_sigma = 0.25;
   // Fusion of the evidence (FuseEvidence in localiser.cc): a candidate's score is its
   // holistic z-score plus verify_weight for every scale-weighted inlier above
   // verify_chance_inliers, the count a wrong candidate reaches by chance. Without holistic

@@ -46,7 +46,7 @@ TEST(EvidenceTest, SelectsBothKindsOfCandidatesOnce) {
 // Inliers up to the chance level add nothing; each one above adds verify_weight; a scale
 // disagreement discounts them; without holistic evidence the verified score ranks alone.
 TEST(EvidenceTest, FusesHolisticAndGeometricEvidence) {
-  MatchOptions options;  // chance 8, weight 0.2, scale sigma 0.15
+  MatchOptions options;  // chance 8, weight 0.2, scale sigma 0.25
   CandidateEvidence c;
   c.holistic = 0.2f;
   c.holistic_z = 3.0f;
@@ -54,7 +54,7 @@ TEST(EvidenceTest, FusesHolisticAndGeometricEvidence) {
   EXPECT_DOUBLE_EQ(FuseEvidence(c, options), 3.0);
   c.inliers = 18;
   EXPECT_NEAR(FuseEvidence(c, options), 3.0 + 0.2 * 10, 1e-9);
-  c.log_scale = 0.15f;  // one sigma off: weighted by exp(-1/2)
+  c.log_scale = 0.25f;  // one sigma off: weighted by exp(-1/2)
   EXPECT_NEAR(VerifiedScore(c, options), 18 * std::exp(-0.5), 1e-5);
   c.holistic = -1;  // no holistic descriptor
   EXPECT_NEAR(FuseEvidence(c, options), 18 * std::exp(-0.5), 1e-5);
