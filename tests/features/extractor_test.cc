@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -186,6 +187,29 @@ TEST(ExtractorTest, ContextDescriptorsAreSiftsOfTheContextKeypoints) {
     }
     EXPECT_GE(close, f->size() * 99 / 100) << layers << " layers";
   }
+}
+
+// Below twice the size some context keypoints stay on SIFT's doubled base, which only
+// SIFT's own pyramid has: those frames are described by SIFT::compute, the same points.
+TEST(ExtractorTest, ContextBelowTwiceTheSizeIsSiftsToo) {
+  const Frame frame = TourFrame();
+  ExtractorOptions o;
+  o.context_scale = 1.5;
+  auto f = FeatureExtractor::Create(o)->ExtractTour(frame.image);
+  ASSERT_TRUE(f.ok()) << f.status().ToString();
+  std::vector<cv::KeyPoint> wide = ContextKeypoints(*f, o);
+  ASSERT_TRUE(std::any_of(wide.begin(), wide.end(), [](const cv::KeyPoint& k) {
+    return static_cast<int8_t>(k.octave & 0xff) < 0;
+  }));
+  cv::Mat sift;
+  cv::SIFT::create(o.max_features, o.octave_layers, o.contrast_threshold, o.edge_threshold, o.sigma)
+      ->compute(frame.gray, wide, sift);
+  ASSERT_EQ(sift.rows, f->size());
+  int close = 0;
+  for (int i = 0; i < f->size(); ++i) {
+    close += Cosine(f->context.row(i).data(), sift.ptr<float>(i)) > 0.999f;
+  }
+  EXPECT_GE(close, f->size() * 99 / 100);
 }
 
 // max_features is exact and keeps the strongest responses.
