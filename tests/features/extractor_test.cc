@@ -166,6 +166,21 @@ TEST(ExtractorTest, ContextIsThePointAtTwiceTheSize) {
   }
 }
 
+// How many of `f`'s context descriptors agree (cosine above 0.999) with OpenCV's
+// SIFT::compute of its context keypoints.
+int ContextRowsLikeSifts(const Frame& frame, const FeatureSet& f, const ExtractorOptions& o) {
+  std::vector<cv::KeyPoint> wide = ContextKeypoints(f, o);
+  cv::Mat sift;
+  cv::SIFT::create(o.max_features, o.octave_layers, o.contrast_threshold, o.edge_threshold, o.sigma)
+      ->compute(frame.gray, wide, sift);
+  EXPECT_EQ(sift.rows, f.size());
+  int close = 0;
+  for (int i = 0; i < std::min(f.size(), sift.rows); ++i) {
+    close += Cosine(f.context.row(i).data(), sift.ptr<float>(i)) > 0.999f;
+  }
+  return close;
+}
+
 // The context descriptors are SIFT's own descriptors of the context keypoints, though read
 // from a pyramid of their own (sift_describer.h): OpenCV's SIFT::compute of the same points
 // agrees with each of them.
@@ -176,16 +191,7 @@ TEST(ExtractorTest, ContextDescriptorsAreSiftsOfTheContextKeypoints) {
     o.octave_layers = layers;
     auto f = FeatureExtractor::Create(o)->ExtractTour(frame.image);
     ASSERT_TRUE(f.ok()) << f.status().ToString();
-    std::vector<cv::KeyPoint> wide = ContextKeypoints(*f, o);
-    cv::Mat sift;
-    cv::SIFT::create(o.max_features, layers, o.contrast_threshold, o.edge_threshold, o.sigma)
-        ->compute(frame.gray, wide, sift);
-    ASSERT_EQ(sift.rows, f->size());
-    int close = 0;
-    for (int i = 0; i < f->size(); ++i) {
-      close += Cosine(f->context.row(i).data(), sift.ptr<float>(i)) > 0.999f;
-    }
-    EXPECT_GE(close, f->size() * 99 / 100) << layers << " layers";
+    EXPECT_GE(ContextRowsLikeSifts(frame, *f, o), f->size() * 99 / 100) << layers << " layers";
   }
 }
 
@@ -197,19 +203,11 @@ TEST(ExtractorTest, ContextBelowTwiceTheSizeIsSiftsToo) {
   o.context_scale = 1.5;
   auto f = FeatureExtractor::Create(o)->ExtractTour(frame.image);
   ASSERT_TRUE(f.ok()) << f.status().ToString();
-  std::vector<cv::KeyPoint> wide = ContextKeypoints(*f, o);
+  const std::vector<cv::KeyPoint> wide = ContextKeypoints(*f, o);
   ASSERT_TRUE(std::any_of(wide.begin(), wide.end(), [](const cv::KeyPoint& k) {
     return static_cast<int8_t>(k.octave & 0xff) < 0;
   }));
-  cv::Mat sift;
-  cv::SIFT::create(o.max_features, o.octave_layers, o.contrast_threshold, o.edge_threshold, o.sigma)
-      ->compute(frame.gray, wide, sift);
-  ASSERT_EQ(sift.rows, f->size());
-  int close = 0;
-  for (int i = 0; i < f->size(); ++i) {
-    close += Cosine(f->context.row(i).data(), sift.ptr<float>(i)) > 0.999f;
-  }
-  EXPECT_GE(close, f->size() * 99 / 100);
+  EXPECT_GE(ContextRowsLikeSifts(frame, *f, o), f->size() * 99 / 100);
 }
 
 // max_features is exact and keeps the strongest responses.
