@@ -62,7 +62,8 @@ double VerifiedScore(const CandidateEvidence& c, const MatchOptions& options) {
   double verified = c.inliers;
   if (options.verify_scale_sigma > 0) {
     const double s = options.verify_scale_sigma;
-    verified *= std::exp(-c.log_scale * c.log_scale / (2 * s * s));
+    const double m = c.log_scale - options.camera_log_scale;
+    verified *= std::exp(-m * m / (2 * s * s));
   }
   return verified;
 }
@@ -82,13 +83,19 @@ std::vector<float> LocationScores(const std::vector<CandidateEvidence>& candidat
   std::vector<float> scores = holistic_z;
   scores.resize(num_locations, 0.0f);
   if (!options.use_holistic) std::fill(scores.begin(), scores.end(), 0.0f);
+  ScoreCandidates(candidates, options, &scores);
+  return scores;
+}
+
+void ScoreCandidates(const std::vector<CandidateEvidence>& candidates, const MatchOptions& options,
+                     std::vector<float>* scores) {
   for (const CandidateEvidence& c : candidates) {
+    if (c.location < 0 || static_cast<size_t>(c.location) >= scores->size()) continue;
     const double excess = std::max(0.0, VerifiedScore(c, options) - options.verify_chance_inliers);
     const bool holistic = options.use_holistic && c.holistic >= 0;
-    scores[c.location] =
+    (*scores)[c.location] =
         static_cast<float>((holistic ? c.holistic_z : 0.0) + options.verify_weight * excess);
   }
-  return scores;
 }
 
 }  // namespace sceneloc

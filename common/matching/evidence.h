@@ -24,7 +24,8 @@ std::vector<CandidateEvidence> SelectCandidates(const std::vector<int>& by_likel
                                                 const MatchOptions& options);
 
 // Geometric evidence of a verified candidate: its epipolar inliers weighted by keypoint
-// scale agreement, exp(-m^2 / 2 s^2) with s = verify_scale_sigma (1 when 0).
+// scale agreement, exp(-m^2 / 2 s^2) with s = verify_scale_sigma (1 when 0) and m the
+// candidate's log_scale less the camera's (MatchOptions::camera_log_scale).
 double VerifiedScore(const CandidateEvidence& c, const MatchOptions& options);
 
 // The score candidates are ranked by: the holistic z-score plus verify_weight for every
@@ -38,5 +39,11 @@ double FuseEvidence(const CandidateEvidence& c, const MatchOptions& options);
 std::vector<float> LocationScores(const std::vector<CandidateEvidence>& candidates,
                                   const std::vector<float>& holistic_z, size_t num_locations,
                                   const MatchOptions& options);
+
+// The candidates' entries of LocationScores, written into `scores` (every other entry left
+// as it is): how a session re-reads a frame's evidence for its camera (sequence_filter.h).
+// Candidates past the end of `scores` are skipped.
+void ScoreCandidates(const std::vector<CandidateEvidence>& candidates, const MatchOptions& options,
+                     std::vector<float>* scores);
 
 }  // namespace sceneloc

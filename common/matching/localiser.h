@@ -75,6 +75,11 @@ struct MatchOptions {
   // enough for a robot camera that is not the tour's (another focal length scales every
   // size alike); 0.15 lost much on such cameras (docs/results.md, "Other cameras").
   double verify_scale_sigma = 0.25;
+  // Not a setting: log(robot camera's size / tour camera's) of one thing seen from the same
+  // place, i.e. the two focal lengths' ratio in the map's frame. The scale cue measures
+  // agreement from it instead of from 0. A session learns it (sequence_filter.h); single
+  // frames assume the tour's camera (0).
+  double camera_log_scale = 0;
   // Fusion of the evidence (FuseEvidence in localiser.cc): a candidate's score is its
   // holistic z-score plus verify_weight for every scale-weighted inlier above
   // verify_chance_inliers, the count a wrong candidate reaches by chance. Without holistic

@@ -60,6 +60,40 @@ TEST(EvidenceTest, FusesHolisticAndGeometricEvidence) {
   EXPECT_NEAR(FuseEvidence(c, options), 18 * std::exp(-0.5), 1e-5);
 }
 
+// The scale cue measures agreement from the camera's own scale: a candidate whose sizes are
+// the camera's agrees fully, one at the tour camera's is as far off as the camera is.
+TEST(EvidenceTest, ScaleCueIsReadFromTheCamerasScale) {
+  MatchOptions options;
+  CandidateEvidence c;
+  c.inliers = 20;
+  c.log_scale = 0.3f;
+  EXPECT_NEAR(VerifiedScore(c, options), 20 * std::exp(-0.09 / (2 * 0.0625)), 1e-4);
+  options.camera_log_scale = 0.3;
+  EXPECT_NEAR(VerifiedScore(c, options), 20, 1e-4);
+  c.log_scale = 0.0f;
+  EXPECT_NEAR(VerifiedScore(c, options), 20 * std::exp(-0.09 / (2 * 0.0625)), 1e-4);
+}
+
+// ScoreCandidates rewrites the candidates' entries and leaves every other location's, and
+// skips a candidate past the end.
+TEST(EvidenceTest, ScoreCandidatesRewritesOnlyTheCandidates) {
+  MatchOptions options;
+  CandidateEvidence c;
+  c.location = 1;
+  c.holistic = 0.1f;
+  c.holistic_z = 1.0f;
+  c.inliers = 28;
+  c.log_scale = 0.25f;
+  CandidateEvidence past = c;
+  past.location = 7;
+  std::vector<float> scores = {-1.0f, 0.0f, 2.0f};
+  options.camera_log_scale = 0.25;
+  ScoreCandidates({c, past}, options, &scores);
+  EXPECT_FLOAT_EQ(scores[0], -1.0f);
+  EXPECT_NEAR(scores[1], 1.0 + 0.2 * 20, 1e-5);
+  EXPECT_FLOAT_EQ(scores[2], 2.0f);
+}
+
 // Every location gets a score on the confidence's scale: candidates their fused evidence,
 // others their holistic z-score.
 TEST(EvidenceTest, LocationScoresCoverEveryLocation) {
