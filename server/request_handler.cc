@@ -1,6 +1,7 @@
 #include "server/request_handler.h"
 
 #include <algorithm>
+#include <cmath>
 #include <ctime>
 #include <exception>
 #include <filesystem>
@@ -268,7 +269,7 @@ Status RequestHandler::HandleLocalise(const v1::LocaliseRequest& request,
   FillResult(result, *map, match, reply);
   if (!request.session().empty()) {
     const SessionSeed seed{request.reset_session(), other_map, carried ? &*carried : nullptr};
-    UpdateSession(request, client, *map, result, seed, reply);
+    UpdateSession(request, client, *map, match, result, seed, reply);
   }
   reply->set_num_features(static_cast<uint32_t>(features.size()));
   v1::Timings* t = reply->mutable_timings();
@@ -304,9 +305,10 @@ StatusOr<FeatureSet> RequestHandler::QueryFeatures(const v1::LocaliseRequest& re
 }
 
 void RequestHandler::UpdateSession(const v1::LocaliseRequest& request, const std::string& client,
-                                   const LoadedMap& map, const LocaliseResult& result,
-                                   const SessionSeed& seed, v1::LocaliseReply* reply) const {
-  const FrameEvidence evidence = EvidenceOf(result, map.map);
+                                   const LoadedMap& map, const MatchOptions& match,
+                                   const LocaliseResult& result, const SessionSeed& seed,
+                                   v1::LocaliseReply* reply) const {
+  const FrameEvidence evidence = EvidenceOf(result, map.map, match);
   SequenceAnswer answer;
   v1::SessionAnswer* out = reply->mutable_session();
   const TokenOwner owner = TokenOwnerOf(client, request, map);
@@ -326,6 +328,7 @@ void RequestHandler::UpdateSession(const v1::LocaliseRequest& request, const std
   out->set_min_confidence(static_cast<float>(options_.matching.sequence.min_confidence));
   out->set_frames(answer.frames);
   out->set_start(ToWireStart(start));
+  out->set_camera_scale(static_cast<float>(std::exp(answer.camera_log_scale)));
 }
 
 Status RequestHandler::CheckReload(const v1::ReloadMapRequest& request) {

@@ -2,19 +2,20 @@
 
 #include <cmath>
 #include <cstring>
+#include <string>
 
 #include "common/map/crc32.h"
 
 namespace sceneloc {
 namespace {
 
-constexpr char kMagic[4] = {'S', 'L', 'S', '4'};
+constexpr char kMagic[4] = {'S', 'L', 'S', '5'};
 // The earlier formats ("SLS1": N + 1 values; "SLS2": the direction of travel, 2N + 1;
-// "SLS3": every location's speeds, S N + 1): well-formed ones start the session again, as
-// a token of another map does.
-constexpr char kOldMagics[3][4] = {
-    {'S', 'L', 'S', '1'}, {'S', 'L', 'S', '2'}, {'S', 'L', 'S', '3'}};
-constexpr size_t kHeaderBytes = 4 + 4 + 4 + 4 + 4 + 4 + 8;
+// "SLS3": every location's speeds, S N + 1; "SLS4": no camera scale): well-formed ones
+// start the session again, as a token of another map does.
+constexpr char kOldMagics[4][4] = {
+    {'S', 'L', 'S', '1'}, {'S', 'L', 'S', '2'}, {'S', 'L', 'S', '3'}, {'S', 'L', 'S', '4'}};
+constexpr size_t kHeaderBytes = 4 + 4 + 4 + 4 + 4 + 4 + 4 + 8;
 
 bool IsOldFormat(const std::string& bytes) {
   if (bytes.size() < 4) return false;
@@ -55,17 +56,20 @@ T Get(const std::string& in, size_t* at) {
 std::string SerializeSessionToken(const SequenceState& state, const TokenOwner& owner) {
   std::string out;
   out.reserve(kHeaderBytes +
-              4 * (state.location.size() + state.tracked.size() + state.speeds.size()) + 4);
+              4 * (state.location.size() + state.tracked.size() + state.speeds.size()) +
+              2 * state.camera_counts.size() + 4);
   out.append(kMagic, sizeof(kMagic));
   Put<uint32_t>(&out, owner.map_checksum);
   Put<uint32_t>(&out, static_cast<uint32_t>(owner.num_locations));
   Put<uint32_t>(&out, static_cast<uint32_t>(owner.num_speeds));
   Put<uint32_t>(&out, static_cast<uint32_t>(state.tracked.size()));
   Put<uint32_t>(&out, state.frames);
+  Put<uint32_t>(&out, static_cast<uint32_t>(state.camera_counts.size()));
   Put<uint64_t>(&out, SessionHash(owner));
   for (const float p : state.location) Put<float>(&out, p);
   for (const uint32_t l : state.tracked) Put<uint32_t>(&out, l);
   for (const float p : state.speeds) Put<float>(&out, p);
+  for (const uint16_t c : state.camera_counts) Put<uint16_t>(&out, c);
   Put<uint32_t>(&out, Crc32(out.data(), out.size()));
   return out;
 }
@@ -91,14 +95,21 @@ StatusOr<TokenFit> ParseSessionToken(const std::string& bytes, const TokenOwner&
   const uint32_t speeds = Get<uint32_t>(bytes, &at);
   const uint32_t tracked = Get<uint32_t>(bytes, &at);
   const uint32_t frames = Get<uint32_t>(bytes, &at);
+  const uint32_t camera_bins = Get<uint32_t>(bytes, &at);
   const uint64_t session = Get<uint64_t>(bytes, &at);
+  if (camera_bins != 0 && camera_bins != SequenceOptions::kCameraBins) {
+    return corrupt("its camera scale has " + std::to_string(camera_bins) + " bins, not " +
+                   std::to_string(SequenceOptions::kCameraBins));
+  }
   // Every count is bounded by the token's own size (under 2^32 values) before they are
   // multiplied, in 64 bits.
-  const size_t values = (body - kHeaderBytes) / 4;
-  if ((body - kHeaderBytes) % 4 != 0 || locations == 0 || speeds == 0 || locations > values ||
-      speeds > values || tracked > locations ||
+  const size_t camera_bytes = 2 * size_t{camera_bins};
+  const size_t state_bytes = body - kHeaderBytes;
+  const size_t values = state_bytes >= camera_bytes ? (state_bytes - camera_bytes) / 4 : 0;
+  if (state_bytes < camera_bytes || (state_bytes - camera_bytes) % 4 != 0 || locations == 0 ||
+      speeds == 0 || locations > values || speeds > values || tracked > locations ||
       SequenceFilter::StateValues(locations, speeds, tracked) != values) {
-    return corrupt("size does not match its location, speed and tracked counts");
+    return corrupt("size does not match its location, speed, tracked and camera counts");
   }
   if (session != SessionHash(owner)) {
     return InvalidArgument("session_state belongs to another session (another name or key)");
@@ -137,6 +148,10 @@ StatusOr<TokenFit> ParseSessionToken(const std::string& bytes, const TokenOwner&
   for (size_t row = 0; row <= tracked; ++row) {
     SCENELOC_RETURN_IF_ERROR(read_distribution(parsed.speeds.data() + row * speeds, speeds));
   }
+  // Any counts are a camera scale measured somewhere in [-kCameraRange, kCameraRange]: the
+  // worst a forged one does is read that session's own frames at another scale.
+  parsed.camera_counts.resize(camera_bins);
+  for (uint16_t& c : parsed.camera_counts) c = Get<uint16_t>(bytes, &at);
   *state = std::move(parsed);
   return TokenFit::kFits;
 }

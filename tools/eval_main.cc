@@ -168,7 +168,7 @@ std::optional<SessionReport> RunSession(const Args& args, const sl::Map& map,
   const sl::Judging judging{map.options.tolerance, options.min_confidence};
   const std::vector<int> order =
       sl::KidnapOrder(outcomes->size(), args.kidnap, args.seed, args.reverse);
-  *run = sl::RunSequence(*outcomes, map, options.sequence, order);
+  *run = sl::RunSequence(*outcomes, map, options, order);
   SessionReport session{sl::SummariseMethod(*outcomes, sl::Method::kOurs, judging), &**run,
                         *outcomes, args.kidnap, args.reverse};
   for (size_t q = 0; q < outcomes->size(); ++q) (*outcomes)[q].ours = (*run)->filtered[q].ours;

@@ -119,6 +119,17 @@ SettingTable SequenceSettings(SequenceOptions* o) {
           .Range(0, 1000000)
           .Help("locations whose speeds a session keeps; the rest share one distribution")
           .Flag("sequence-tracked-locations"),
+      Setting("sequence", "learn_camera_scale", &o->learn_camera_scale)
+          .Help("learn how much larger the robot's camera sees things than the tour's")
+          .Flag("sequence-learn-camera-scale"),
+      Setting("sequence", "camera_min_inliers", &o->camera_min_inliers)
+          .Range(1, 100000)
+          .Help("inliers a LOCALISED answer's match needs to measure the camera's scale")
+          .Flag("sequence-camera-min-inliers"),
+      Setting("sequence", "camera_min_frames", &o->camera_min_frames)
+          .Range(1, 1000000)
+          .Help("measurements before the session uses its camera's scale")
+          .Flag("sequence-camera-min-frames"),
   };
 }
 

@@ -6,6 +6,7 @@
 #include <numeric>
 
 #include "common/matching/confidence.h"
+#include "common/matching/evidence.h"
 
 namespace sceneloc {
 namespace {
@@ -22,6 +23,7 @@ double StationaryOffMap(const SequenceOptions& o) {
 // "Sessions: a lock per session"). Reused, a frame costs 2.1 ms and the answers are the same.
 struct Workspace {
   std::vector<float> belief;  // the full belief for this frame (Expand)
+  std::vector<float> scores;  // the frame's evidence read with the session's camera
   std::vector<float> sped;    // Predict: after the change of speed
   std::vector<float> moved;   // Predict: after the step
   std::vector<double> log_lik;
@@ -47,9 +49,12 @@ void Normalise(std::vector<float>* v) {
 
 }  // namespace
 
-FrameEvidence EvidenceOf(const LocaliseResult& result, const Map& map) {
+FrameEvidence EvidenceOf(const LocaliseResult& result, const Map& map,
+                         const MatchOptions& options) {
   FrameEvidence e;
   e.location_scores = result.location_scores;
+  e.candidates = result.candidates;
+  e.fusion = options;
   if (map.calibration.valid && result.nearest_holistic_distance >= 0) {
     e.in_map = InMapProbability(map, result.nearest_holistic_distance);
   }
@@ -189,14 +194,14 @@ void SequenceFilter::Spread(std::vector<double>* log_lik) const {
   }
 }
 
-void SequenceFilter::Observe(const FrameEvidence& evidence, std::vector<float>* belief) const {
+void SequenceFilter::Observe(const std::vector<float>& s, double in_map,
+                             std::vector<float>* belief) const {
   const int n = num_locations_;
-  const std::vector<float>& s = evidence.location_scores;
   const bool has_scores =
       s.size() == static_cast<size_t>(n) &&
       *std::max_element(s.begin(), s.end()) != *std::min_element(s.begin(), s.end());
-  if (!has_scores && evidence.in_map < 0) return;  // nothing observed: prediction only
-  const double p_in = evidence.in_map < 0 ? 0.5 : std::clamp(evidence.in_map, 1e-4, 1 - 1e-4);
+  if (!has_scores && in_map < 0) return;  // nothing observed: prediction only
+  const double p_in = in_map < 0 ? 0.5 : std::clamp(in_map, 1e-4, 1 - 1e-4);
   const double gamma = options_.evidence_weight;
   // log P(frame | l) up to a constant shared by every state: the single-frame posterior
   // over a uniform prior (even odds of in-map, 1/N per location) is a likelihood ratio.
@@ -234,6 +239,8 @@ void SequenceFilter::Observe(const FrameEvidence& evidence, std::vector<float>* 
 bool SequenceFilter::Fits(const SequenceState& state) const {
   const size_t n = static_cast<size_t>(num_locations_), tracked = state.tracked.size();
   if (state.location.size() != n + 1 || tracked > n ||
+      (!state.camera_counts.empty() &&
+       state.camera_counts.size() != static_cast<size_t>(SequenceOptions::kCameraBins)) ||
       state.speeds.size() != (tracked + 1) * static_cast<size_t>(num_speeds())) {
     return false;
   }
@@ -326,22 +333,106 @@ SequenceAnswer SequenceFilter::Answer(const SequenceState& state) const {
   return a;
 }
 
+double SequenceFilter::CameraLogScale(const SequenceState& state) const {
+  if (!options_.learn_camera_scale || state.camera_counts.size() != SequenceOptions::kCameraBins) {
+    return 0;
+  }
+  const double total = std::accumulate(state.camera_counts.begin(), state.camera_counts.end(), 0.0);
+  if (total < options_.camera_min_frames) return 0;
+  // The median, spread evenly over its bin.
+  double below = 0;
+  for (int i = 0; i < SequenceOptions::kCameraBins; ++i) {
+    const double count = state.camera_counts[i];
+    if (below + count >= total / 2 && count > 0) {
+      return -SequenceOptions::kCameraRange +
+             SequenceOptions::kCameraBinWidth * (i + (total / 2 - below) / count);
+    }
+    below += count;
+  }
+  return 0;
+}
+
+void SequenceFilter::MeasureCamera(const FrameEvidence& evidence, const SequenceAnswer& answer,
+                                   SequenceState* state) const {
+  if (!options_.learn_camera_scale || answer.decision != Decision::kLocalised) return;
+  // The verified candidates within the tolerance of the answer, above chance. Their log
+  // scales run from the frames behind the robot (things looked smaller from there: m > 0)
+  // to those ahead (m < 0) around the camera's own at the robot's place; weighted by inliers
+  // their median is it. The raw inlier counts weigh, not the scale-weighted ones: a
+  // measurement that the current estimate chose would only confirm it (a single best match
+  // is more often the frame behind, and its measurement fed back made answers lag).
+  struct Measured {
+    float log_scale;
+    int inliers;
+  };
+  std::vector<Measured> near;
+  double total = 0;
+  int most = 0;
+  for (const CandidateEvidence& c : evidence.candidates) {
+    if (std::abs(c.location - answer.location) > tolerance_ ||
+        c.inliers < evidence.fusion.verify_chance_inliers || c.inliers <= 0 ||
+        !std::isfinite(c.log_scale)) {
+      continue;
+    }
+    near.push_back({c.log_scale, c.inliers});
+    total += c.inliers;
+    most = std::max(most, c.inliers);
+  }
+  if (most < options_.camera_min_inliers) return;  // no clear match: nothing measured
+  std::sort(near.begin(), near.end(),
+            [](const Measured& a, const Measured& b) { return a.log_scale < b.log_scale; });
+  double below = 0, measured = near.front().log_scale;
+  for (const Measured& m : near) {
+    below += m.inliers;
+    if (below >= total / 2) {
+      measured = m.log_scale;
+      break;
+    }
+  }
+  std::vector<uint16_t>& counts = state->camera_counts;
+  counts.resize(SequenceOptions::kCameraBins, 0);
+  const int bin =
+      std::clamp(static_cast<int>(std::floor((measured + SequenceOptions::kCameraRange) /
+                                             SequenceOptions::kCameraBinWidth)),
+                 0, SequenceOptions::kCameraBins - 1);
+  if (counts[bin] == UINT16_MAX) {  // halve them all: the median stays, the newest count more
+    for (uint16_t& c : counts) c = static_cast<uint16_t>(c / 2);
+  }
+  ++counts[bin];
+}
+
 SequenceAnswer SequenceFilter::Update(const FrameEvidence& evidence, SequenceState* state) const {
-  std::vector<float>& belief = ThreadWorkspace().belief;
+  Workspace& work = ThreadWorkspace();
+  std::vector<float>& belief = work.belief;
   if (!Fits(*state)) {
     const double off = StationaryOffMap(options_);
     const size_t size = static_cast<size_t>(num_speeds()) * num_locations_ + 1;
     belief.assign(size, static_cast<float>((1 - off) / static_cast<double>(size - 1)));
     belief.back() = static_cast<float>(off);
     state->frames = 0;
+    state->camera_counts.clear();
   } else {
     Expand(*state, &belief);
     Predict(&belief);
   }
-  Observe(evidence, &belief);
+  // The frame's evidence read with the session's camera: only the verified candidates'
+  // scores depend on it.
+  const double camera = CameraLogScale(*state);
+  const std::vector<float>* scores = &evidence.location_scores;
+  if (camera != 0 && !evidence.candidates.empty()) {
+    work.scores = evidence.location_scores;
+    MatchOptions fusion = evidence.fusion;
+    fusion.camera_log_scale = camera;
+    ScoreCandidates(evidence.candidates, fusion, &work.scores);
+    scores = &work.scores;
+  }
+  Observe(*scores, evidence.in_map, &belief);
   Compact(belief, state);
   if (state->frames < UINT32_MAX) ++state->frames;  // a carried count can be anything
-  return Answer(*state);
+  SequenceAnswer answer = Answer(*state);
+  answer.camera_log_scale = camera;
+  MeasureCamera(evidence, answer, state);
+  return answer;
 }
 
 }  // namespace sceneloc

@@ -59,10 +59,16 @@ struct FrameEvidence {
   std::vector<float> location_scores;
   // P(the frame shows a place of the route), or -1 when unknown.
   double in_map = -1;
+  // The verified candidates and the settings their scores were fused with: a session that
+  // has learnt its camera's scale reads them again with it (SequenceOptions::
+  // learn_camera_scale), and measures the scale on them. Empty: nothing to re-read.
+  std::vector<CandidateEvidence> candidates;
+  MatchOptions fusion;
 };
 
-// The evidence of a localise result against `map` (its calibration's P(in the map)).
-FrameEvidence EvidenceOf(const LocaliseResult& result, const Map& map);
+// The evidence of a localise result against `map` (its calibration's P(in the map)),
+// localised with `options`.
+FrameEvidence EvidenceOf(const LocaliseResult& result, const Map& map, const MatchOptions& options);
 
 // A session's belief between frames, compact: belief(l, v) = location[l] P(v | l), with
 // P(v | l) kept for the `tracked` locations and one distribution shared by the others
@@ -76,11 +82,15 @@ struct SequenceState {
   // row per tracked location in that order, then the row the others share.
   std::vector<float> speeds;
   uint32_t frames = 0;  // frames filtered so far
+  // The robot camera's log scale against the tour's as measured on the session's LOCALISED
+  // answers: how many measurements fell in each of SequenceOptions::kCameraBins bins
+  // (empty before the first).
+  std::vector<uint16_t> camera_counts;
 
   // The heap the state holds, bytes.
   size_t MemoryBytes() const {
     return (location.capacity() + speeds.capacity()) * sizeof(float) +
-           tracked.capacity() * sizeof(uint32_t);
+           tracked.capacity() * sizeof(uint32_t) + camera_counts.capacity() * sizeof(uint16_t);
   }
 };
 
@@ -91,6 +101,8 @@ struct SequenceAnswer {
   double off_map = 0;      // belief in "off the map"
   uint32_t frames = 0;     // frames the session has seen, this one included
   Decision decision = Decision::kUnknown;
+  // The camera's log scale the session read this frame with (0 until it has learnt one).
+  double camera_log_scale = 0;
 };
 
 class SequenceFilter {
@@ -104,6 +116,11 @@ class SequenceFilter {
   // working memory of its largest update (three S N floats and a few N-sized arrays: 2.2 MB
   // at 10,000 locations and 17 speeds) for the next.
   SequenceAnswer Update(const FrameEvidence& evidence, SequenceState* state) const;
+
+  // The camera's log scale a session with `state` reads its next frame with: the median of
+  // its measurements once there are camera_min_frames of them, else 0 (the tour's camera);
+  // always 0 when learn_camera_scale is off.
+  double CameraLogScale(const SequenceState& state) const;
 
   // Whether `state` is a state of this filter: its sizes, and tracked locations ascending
   // on the map. Values are not checked. A state that tracks more or fewer locations than
@@ -142,7 +159,12 @@ class SequenceFilter {
   void Expand(const SequenceState& state, std::vector<float>* belief) const;
   void Compact(const std::vector<float>& belief, SequenceState* state) const;
   void Predict(std::vector<float>* belief) const;
-  void Observe(const FrameEvidence& evidence, std::vector<float>* belief) const;
+  // Weighs `belief` by a frame's evidence: every location's fused score, and P(in the map)
+  // (-1 unknown).
+  void Observe(const std::vector<float>& scores, double in_map, std::vector<float>* belief) const;
+  // Adds the camera's scale measured on this frame's answer, if it gives one, to `state`.
+  void MeasureCamera(const FrameEvidence& evidence, const SequenceAnswer& answer,
+                     SequenceState* state) const;
   // Adds to each location's likelihood its neighbours' within the band, weighted by
   // spread_ (log_lik holds N locations, then off-map, which is left alone).
   void Spread(std::vector<double>* log_lik) const;

@@ -52,6 +52,26 @@ struct SequenceOptions {
   // speeds").
   int tracked_locations = 64;
 
+  // The robot's camera is rarely the tour's: another focal length makes everything look
+  // larger or smaller by one factor, and verification's scale cue (MatchOptions::
+  // verify_scale_sigma), which tells a frame from its neighbours by how large things look,
+  // then prefers a frame metres off. A session learns the factor: on each LOCALISED answer
+  // whose best verified candidate within the tolerance has at least camera_min_inliers
+  // inliers (12: 1.5x the chance level), the inlier-weighted median log size ratio of those
+  // candidates (above chance) is one measurement; the median of every measurement so far,
+  // once there are camera_min_frames of them, is the camera's (MatchOptions::
+  // camera_log_scale) for the session's next frames. Single frames assume the tour's camera.
+  // Measured: docs/results.md "Sessions learn the robot's camera".
+  bool learn_camera_scale = true;
+  int camera_min_inliers = 12;
+  int camera_min_frames = 3;
+  // The measurements are kept as counts in kCameraBins bins of kCameraBinWidth from
+  // -kCameraRange (measurements beyond the range count in the end bins): the median to a
+  // fraction of a bin in constant state, 128 bytes.
+  static constexpr int kCameraBins = 64;
+  static constexpr double kCameraRange = 0.8;
+  static constexpr double kCameraBinWidth = 2 * kCameraRange / kCameraBins;
+
   // The ranges of SequenceSettings.
   Status Validate() const;
 };

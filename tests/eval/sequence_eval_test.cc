@@ -69,7 +69,7 @@ std::vector<QueryOutcome> SyntheticOutcomes(int fooled = 5, int truth_offset = 0
 TEST(RunSequenceTest, FiltersAndCountsRelocalisation) {
   const Map map = test::MakeRandomMap(60, 200, 5);
   const std::vector<QueryOutcome> outcomes = SyntheticOutcomes();
-  SequenceOptions options;
+  MatchOptions options;
   const SequenceRun in_order = RunSequence(outcomes, map, options, KidnapOrder(60, 1, 1));
   ASSERT_EQ(in_order.filtered.size(), 60u);
   int right = 0;
@@ -122,7 +122,7 @@ TEST(StandardWalksTest, Orders) {
 // LOCALISES is counted wrong.
 TEST(SummariseWalkTest, RatesPrecisionAndCalibration) {
   const Map map = test::MakeRandomMap(60, 200, 5);
-  const SequenceOptions options;
+  const MatchOptions options;
   for (const Walk& walk : StandardWalks(60)) {
     SCOPED_TRACE(walk.name);
     const WalkSummary s = SummariseWalk(walk, SyntheticOutcomes(), map, options);
@@ -143,15 +143,14 @@ TEST(SummariseWalkTest, RatesPrecisionAndCalibration) {
 // The kidnapped robot over seeds: every jump of every seed counted, each found again soon.
 TEST(SummariseKidnapsTest, EveryJumpOfEverySeed) {
   const Map map = test::MakeRandomMap(60, 200, 5);
-  const KidnapSummary k = SummariseKidnaps(SyntheticOutcomes(), map, SequenceOptions(), 4, 3);
+  const KidnapSummary k = SummariseKidnaps(SyntheticOutcomes(), map, MatchOptions(), 4, 3);
   EXPECT_EQ(k.segments, 4);
   EXPECT_EQ(k.seeds, 3);
   EXPECT_EQ(k.jumps, 9);
   EXPECT_LE(k.median, 2);
   EXPECT_LE(k.worst, 5);
   EXPECT_GE(k.worst, k.median);
-  const KidnapSummary lost =
-      SummariseKidnaps(SyntheticOutcomes(0, 10), map, SequenceOptions(), 4, 3);
+  const KidnapSummary lost = SummariseKidnaps(SyntheticOutcomes(0, 10), map, MatchOptions(), 4, 3);
   EXPECT_EQ(lost.median, 15);  // never right: each segment's whole length
 }
 

@@ -9,6 +9,7 @@
 #include <random>
 #include <vector>
 
+#include "common/matching/evidence.h"
 #include "tests/support/test_map.h"
 
 namespace sceneloc {
@@ -36,6 +37,36 @@ class SequenceFilterTest : public ::testing::Test {
       e.location_scores[l] = static_cast<float>(height * std::exp(-d * d / 2)) + noise(rng_);
     }
     if (decoy >= 0) e.location_scores[decoy] = static_cast<float>(height + 1);
+    return e;
+  }
+
+  // A frame at `where` seen by a camera that makes everything exp(camera) times larger than
+  // the tour's, with its verified candidates: the tour frames within 3 of it, inliers
+  // peaking at `where` (40, 4 fewer per frame away), log scales falling 0.1 per frame from
+  // the frames behind (things looked smaller from there) to those ahead, through `camera`
+  // at `where`; a gentle holistic peak. Its scores are fused as the localiser does, with
+  // the tour's camera assumed (0).
+  FrameEvidence CameraFrame(int where, double camera) {
+    std::normal_distribution<float> noise(0, 0.1f);
+    std::vector<float> holistic_z(kLocations);
+    for (int l = 0; l < kLocations; ++l) {
+      const double d = l - where;
+      holistic_z[l] = static_cast<float>(2 * std::exp(-d * d / 8)) + noise(rng_);
+    }
+    FrameEvidence e;
+    e.in_map = 0.95;
+    for (int d = -3; d <= 3; ++d) {
+      const int l = where + d;
+      if (l < 0 || l >= kLocations) continue;
+      CandidateEvidence c;
+      c.location = l;
+      c.holistic = 0.5f;
+      c.holistic_z = holistic_z[l];
+      c.inliers = 40 - 4 * std::abs(d);
+      c.log_scale = static_cast<float>(camera - 0.1 * d);
+      e.candidates.push_back(c);
+    }
+    e.location_scores = LocationScores(e.candidates, holistic_z, kLocations, e.fusion);
     return e;
   }
 
@@ -266,19 +297,117 @@ TEST_F(SequenceFilterTest, ForeignStateRestarts) {
   SequenceState fits;
   filter.Update(Frame(30), &fits);
   ASSERT_TRUE(filter.Fits(fits));
-  std::vector<SequenceState> foreign(4, fits);
+  fits.camera_counts.assign(SequenceOptions::kCameraBins, 1);
+  ASSERT_TRUE(filter.Fits(fits));
+  std::vector<SequenceState> foreign(5, fits);
   foreign[0].location.assign(17, 1.0f / 17);  // another map
   foreign[1].speeds.pop_back();               // other speeds
   std::swap(foreign[2].tracked[0], foreign[2].tracked[1]);
   foreign[3].tracked.back() = kLocations;  // past the map
+  foreign[4].camera_counts.pop_back();     // another camera histogram
   for (SequenceState& state : foreign) {
     EXPECT_FALSE(filter.Fits(state));
     state.frames = 99;
     const SequenceAnswer a = filter.Update(Frame(70), &state);
     EXPECT_EQ(a.frames, 1u);
+    EXPECT_TRUE(state.camera_counts.empty());  // Frame() has no candidates to measure
     EXPECT_TRUE(filter.Fits(state));
     EXPECT_LE(std::abs(a.location - 70), 2);
   }
+}
+
+// A robot whose camera sees everything 1.35x larger than the tour's (a narrower lens): the
+// scale cue, read from the tour camera's scale, prefers the frames ahead where things
+// looked that large, and the session answers 2-3 frames ahead of the robot. Learning the
+// camera's scale from its LOCALISED frames, the session reads its frames with it and
+// answers where the robot is.
+TEST_F(SequenceFilterTest, LearnsTheScaleOfAnotherCamera) {
+  const double camera = 0.3;
+  const auto walk = [&](bool learn, double* learnt) {
+    options_.learn_camera_scale = learn;
+    const SequenceFilter filter = Filter();
+    SequenceState state;
+    double ahead = 0;
+    for (int t = 0; t < 60; ++t) {
+      const SequenceAnswer a = filter.Update(CameraFrame(40 + t, camera), &state);
+      if (t >= 40) ahead += (a.location - (40 + t)) / 20.0;
+      *learnt = a.camera_log_scale;
+    }
+    return ahead;
+  };
+  double learnt = 0;
+  EXPECT_GT(walk(false, &learnt), 1.5);
+  EXPECT_EQ(learnt, 0);
+  EXPECT_LT(std::abs(walk(true, &learnt)), 0.5);
+  EXPECT_NEAR(learnt, camera, 0.05);
+}
+
+// The tour's own camera is learnt as the tour's: the answers are the same as without
+// learning, exactly where the robot is.
+TEST_F(SequenceFilterTest, TheToursCameraIsLearntAsItself) {
+  const SequenceFilter filter = Filter();
+  SequenceState state;
+  for (int t = 0; t < 40; ++t) {
+    const SequenceAnswer a = filter.Update(CameraFrame(40 + t, 0), &state);
+    EXPECT_NEAR(a.camera_log_scale, 0, 0.03) << "frame " << t;
+    if (t >= 2) EXPECT_EQ(a.location, 40 + t) << "frame " << t;
+  }
+  EXPECT_FALSE(state.camera_counts.empty());
+}
+
+// Nothing is measured from an answer that is not LOCALISED or from matches too weak to
+// trust (below camera_min_inliers); the scale is used only once camera_min_frames
+// measurements are in.
+TEST_F(SequenceFilterTest, CameraMeasuredOnlyOnClearLocalisedMatches) {
+  const SequenceFilter filter = Filter();
+  SequenceState state;
+  filter.Update(Elsewhere(), &state);  // UNKNOWN
+  EXPECT_TRUE(state.camera_counts.empty());
+  FrameEvidence weak = CameraFrame(50, 0.3);
+  for (CandidateEvidence& c : weak.candidates) c.inliers = options_.camera_min_inliers - 1;
+  for (int t = 0; t < 5; ++t) filter.Update(weak, &state);
+  EXPECT_TRUE(state.camera_counts.empty());
+  SequenceAnswer a;
+  for (int t = 0; t < options_.camera_min_frames; ++t) {
+    a = filter.Update(CameraFrame(50, 0.3), &state);
+    EXPECT_EQ(a.camera_log_scale, 0) << "measurement " << t;
+  }
+  EXPECT_EQ(std::accumulate(state.camera_counts.begin(), state.camera_counts.end(), 0),
+            options_.camera_min_frames);
+  EXPECT_GT(filter.Update(CameraFrame(50, 0.3), &state).camera_log_scale, 0.05);
+}
+
+// The camera's scale is the median of the measurements' bins, to within a bin; off, or
+// with fewer than camera_min_frames, it is 0; saturated counts are halved, not wrapped.
+TEST_F(SequenceFilterTest, CameraScaleIsTheMedianOfItsMeasurements) {
+  SequenceState state;
+  state.camera_counts.assign(SequenceOptions::kCameraBins, 0);
+  const auto bin_of = [](double x) {
+    return static_cast<int>((x + SequenceOptions::kCameraRange) / SequenceOptions::kCameraBinWidth);
+  };
+  state.camera_counts[bin_of(-0.5)] = 2;
+  state.camera_counts[bin_of(0.21)] = 5;
+  state.camera_counts[bin_of(0.6)] = 2;
+  EXPECT_NEAR(Filter().CameraLogScale(state), 0.21, SequenceOptions::kCameraBinWidth);
+  options_.camera_min_frames = 10;
+  EXPECT_EQ(Filter().CameraLogScale(state), 0);
+  options_.camera_min_frames = 3;
+  options_.learn_camera_scale = false;
+  EXPECT_EQ(Filter().CameraLogScale(state), 0);
+  options_.learn_camera_scale = true;
+  const SequenceFilter filter = Filter();
+  SequenceState full;
+  for (int t = 0; full.camera_counts.empty() && t < 10; ++t)
+    filter.Update(CameraFrame(50, 0), &full);
+  ASSERT_EQ(full.camera_counts.size(), static_cast<size_t>(SequenceOptions::kCameraBins));
+  const int bin =
+      static_cast<int>(std::max_element(full.camera_counts.begin(), full.camera_counts.end()) -
+                       full.camera_counts.begin());
+  full.camera_counts[bin] = UINT16_MAX;
+  full.camera_counts[0] = 7;
+  filter.Update(CameraFrame(50, 0), &full);
+  EXPECT_EQ(full.camera_counts[0], 3);
+  EXPECT_GE(full.camera_counts[bin], UINT16_MAX / 2);
 }
 
 // Between frames a state keeps the speeds of the most probable locations only (the others

@@ -98,10 +98,29 @@ TEST_F(SessionTest, SessionFollowsTheWalk) {
       EXPECT_LE(std::abs(s.location() - i), 2) << "frame " << i;
       EXPECT_EQ(s.decision(), v1::LOCALISED) << "frame " << i;
     }
+    EXPECT_NEAR(s.camera_scale(), 1.0f, 0.05f) << "frame " << i;  // the tour's own camera
   }
   auto alone = client_->Localise(kTestMapName, test::TourFeatures(3));
   ASSERT_TRUE(alone.ok());
   EXPECT_FALSE(alone->has_session());
+}
+
+// A robot whose camera sees everything 1.3x larger than the tour's (its keypoints' sizes
+// scaled): the session learns the factor from its LOCALISED frames and reports it, 1 until
+// it has measured camera_min_frames of them; it carries it in its state from frame to frame.
+TEST_F(SessionTest, SessionLearnsTheRobotsCamera) {
+  float scale = 0;
+  for (int i = 0; i < kTestTourLocations; ++i) {
+    FeatureSet features = test::TourFeatures(i);
+    for (Keypoint& k : features.keypoints) k.size *= 1.3f;
+    LocaliseOptions options;
+    options.session = "zoomed";
+    auto reply = client_->Localise(kTestMapName, features, options);
+    ASSERT_TRUE(reply.ok()) << reply.status().ToString();
+    if (i < 2) EXPECT_FLOAT_EQ(reply->session().camera_scale(), 1.0f) << "frame " << i;
+    scale = reply->session().camera_scale();
+  }
+  EXPECT_NEAR(scale, 1.3f, 0.06f);
 }
 
 // Two robots on one map, their frames interleaved on two connections: each session counts
@@ -239,7 +258,8 @@ TEST_F(SessionTest, AnotherServerContinuesFromTheCarriedState) {
     ASSERT_TRUE(reply.ok());
     state = reply->session().state();
   }
-  EXPECT_EQ(state.size(), 36u + 4 * TestStateSize());
+  // The header, the filter's values and the camera's 64 bins (measured by now).
+  EXPECT_EQ(state.size(), 40u + 4 * TestStateSize() + 2 * SequenceOptions::kCameraBins);
   auto reply = (*other)->Call(CarriedFrame(6, "walk-2", state));
   ASSERT_TRUE(reply.ok());
   ASSERT_EQ(reply->status(), v1::OK) << reply->error();
@@ -248,6 +268,7 @@ TEST_F(SessionTest, AnotherServerContinuesFromTheCarriedState) {
   EXPECT_EQ(s.frames(), 7u);
   EXPECT_EQ(s.location(), one_server[6].location());
   EXPECT_NEAR(s.probability(), one_server[6].probability(), 1e-4);
+  EXPECT_FLOAT_EQ(s.camera_scale(), one_server[6].camera_scale());
 }
 
 // A corrupt state, or one of another session, is INVALID_ARGUMENT saying so; the session

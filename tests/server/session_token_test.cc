@@ -27,25 +27,37 @@ SequenceState State() {
   return s;
 }
 
-// A state survives the round trip exactly; its size is 36 + 4 (N + 1 + K + (K + 1) S)
-// bytes.
+// The state of a session that has measured its camera's scale.
+SequenceState StateWithCamera() {
+  SequenceState s = State();
+  s.camera_counts.assign(SequenceOptions::kCameraBins, 0);
+  s.camera_counts[20] = 3;
+  s.camera_counts[41] = 65535;
+  return s;
+}
+
+// A state survives the round trip exactly; its size is 40 + 4 (N + 1 + K + (K + 1) S) + 2 B
+// bytes, B the camera's bins (0 until the session measures its camera).
 TEST(SessionTokenTest, RoundTrip) {
-  const SequenceState state = State();
-  const std::string bytes = SerializeSessionToken(state, Owner());
-  EXPECT_EQ(bytes.size(), 36u + 4 * (5 + 2 + 6));
-  SequenceState parsed;
-  auto fit = ParseSessionToken(bytes, Owner(), &parsed);
-  ASSERT_TRUE(fit.ok()) << fit.status().ToString();
-  EXPECT_EQ(*fit, TokenFit::kFits);
-  EXPECT_EQ(parsed.frames, 17u);
-  EXPECT_EQ(parsed.location, state.location);
-  EXPECT_EQ(parsed.tracked, state.tracked);
-  EXPECT_EQ(parsed.speeds, state.speeds);
+  for (const SequenceState& state : {State(), StateWithCamera()}) {
+    const std::string bytes = SerializeSessionToken(state, Owner());
+    EXPECT_EQ(bytes.size(), 40u + 4 * (5 + 2 + 6) + 2 * state.camera_counts.size());
+    SequenceState parsed;
+    auto fit = ParseSessionToken(bytes, Owner(), &parsed);
+    ASSERT_TRUE(fit.ok()) << fit.status().ToString();
+    EXPECT_EQ(*fit, TokenFit::kFits);
+    EXPECT_EQ(parsed.frames, 17u);
+    EXPECT_EQ(parsed.location, state.location);
+    EXPECT_EQ(parsed.tracked, state.tracked);
+    EXPECT_EQ(parsed.speeds, state.speeds);
+    EXPECT_EQ(parsed.camera_counts, state.camera_counts);
+  }
 }
 
 // Tokens of the earlier formats ("SLS1": N + 1 values; "SLS2": the direction of travel,
-// 2N + 1; "SLS3": every location's speeds, S N + 1) that a client kept across the server's
-// upgrade start their session again: not an error. The same bytes damaged are still
+// 2N + 1; "SLS3": every location's speeds, S N + 1; "SLS4": the tracked locations' speeds,
+// no camera) that a client kept across the server's upgrade start their session again: not
+// an error. The same bytes damaged are still
 // refused.
 TEST(SessionTokenTest, EarlierFormatsStartAgain) {
   struct Old {
@@ -55,7 +67,8 @@ TEST(SessionTokenTest, EarlierFormatsStartAgain) {
   };
   const Old olds[] = {{"SLS1", {0xabcdef01u, 4, 17}, 5},
                       {"SLS2", {0xabcdef01u, 4, 17}, 9},
-                      {"SLS3", {0xabcdef01u, 4, 2, 17}, 9}};
+                      {"SLS3", {0xabcdef01u, 4, 2, 17}, 9},
+                      {"SLS4", {0xabcdef01u, 4, 2, 2, 17}, 13}};
   for (const Old& o : olds) {
     SCOPED_TRACE(o.magic);
     std::string old(o.magic);
@@ -83,7 +96,7 @@ TEST(SessionTokenTest, EarlierFormatsStartAgain) {
 
 // Any flipped byte, a truncation or no header at all: INVALID_ARGUMENT, state untouched.
 TEST(SessionTokenTest, CorruptTokensAreRefused) {
-  const std::string good = SerializeSessionToken(State(), Owner());
+  const std::string good = SerializeSessionToken(StateWithCamera(), Owner());
   SequenceState parsed;
   parsed.frames = 99;
   for (size_t i = 0; i < good.size(); ++i) {
@@ -131,6 +144,11 @@ TEST(SessionTokenTest, ForgedValuesAreRefused) {
   EXPECT_NE(refusal(s).find("tracked locations"), std::string::npos);
   s.tracked = {1, 4};  // past the map's 4 locations
   EXPECT_NE(refusal(s).find("tracked locations"), std::string::npos);
+  s = State();
+  s.camera_counts.assign(SequenceOptions::kCameraBins - 1, 1);
+  EXPECT_NE(refusal(s).find("camera scale has 63 bins"), std::string::npos);
+  s.camera_counts.assign(SequenceOptions::kCameraBins + 1, 1);
+  EXPECT_NE(refusal(s).find("camera scale has 65 bins"), std::string::npos);
 }
 
 // Another session's token (name or key) is refused; another map's starts the session again.

@@ -348,16 +348,16 @@ StatusOr<SetResult> RunSet(const SuiteSet& set, const SuiteSettings& settings,
   result.summary = Summarise(result.outcomes, /*with_baseline=*/true,
                              {settings.train.tolerance, settings.match.min_confidence});
   result.paper = paper.summary;
-  const SequenceRun run = RunSequence(result.outcomes, ours.map, settings.match.sequence,
+  const SequenceRun run = RunSequence(result.outcomes, ours.map, settings.match,
                                       KidnapOrder(result.outcomes.size(), 1, 0));
   for (const QueryOutcome& o : run.filtered) result.session_outcomes.push_back(o.ours);
   result.session =
       SummariseMethod(run.filtered, Method::kOurs,
                       {settings.train.tolerance, settings.match.sequence.min_confidence});
   for (const Walk& walk : StandardWalks(result.outcomes.size())) {
-    result.walks.push_back(SummariseWalk(walk, result.outcomes, ours.map, settings.match.sequence));
+    result.walks.push_back(SummariseWalk(walk, result.outcomes, ours.map, settings.match));
   }
-  result.kidnap = SummariseKidnaps(result.outcomes, ours.map, settings.match.sequence,
+  result.kidnap = SummariseKidnaps(result.outcomes, ours.map, settings.match,
                                    SetResult::kKidnapSegments, SetResult::kKidnapSeeds);
   return result;
 }

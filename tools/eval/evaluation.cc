@@ -194,7 +194,7 @@ Status RunOurs(const std::vector<FeatureSet>& queries, const Map& map, const Mat
     o.stages = r.timings;
     o.candidates = r.candidates;
     o.location_scores = r.location_scores;
-    o.in_map = EvidenceOf(r, map).in_map;
+    o.in_map = EvidenceOf(r, map, options).in_map;
     o.keypoints = queries[q].size();
   }
   return Status::Ok();

@@ -49,8 +49,8 @@ std::vector<int> KidnapOrder(size_t n, int segments, uint32_t seed, bool reverse
 }
 
 SequenceRun RunSequence(const std::vector<QueryOutcome>& outcomes, const Map& map,
-                        const SequenceOptions& options, const std::vector<int>& order) {
-  const SequenceFilter filter(map, options);
+                        const MatchOptions& options, const std::vector<int>& order) {
+  const SequenceFilter filter(map, options.sequence);
   SequenceRun run;
   run.filtered = outcomes;
   SequenceState state;
@@ -67,7 +67,8 @@ SequenceRun RunSequence(const std::vector<QueryOutcome>& outcomes, const Map& ma
       }
       since_jump_correct = since_jump_localised = 0;
     }
-    FrameEvidence evidence{outcomes[q].location_scores, outcomes[q].in_map};
+    const FrameEvidence evidence{outcomes[q].location_scores, outcomes[q].in_map,
+                                 outcomes[q].candidates, options};
     Stopwatch watch;
     const SequenceAnswer a = filter.Update(evidence, &state);
     ms.push_back(watch.Milliseconds());
@@ -139,7 +140,7 @@ std::vector<Walk> StandardWalks(size_t n) {
 }
 
 WalkSummary SummariseWalk(const Walk& walk, const std::vector<QueryOutcome>& outcomes,
-                          const Map& map, const SequenceOptions& options) {
+                          const Map& map, const MatchOptions& options) {
   const SequenceRun run = RunSequence(outcomes, map, options, walk.order);
   WalkSummary s;
   s.name = walk.name;
@@ -154,7 +155,8 @@ WalkSummary SummariseWalk(const Walk& walk, const std::vector<QueryOutcome>& out
     localised_right += step.localised && step.correct ? 1 : 0;
   }
   if (s.steps == 0) return s;
-  const ConfidenceMetrics m = ComputeConfidenceMetrics(confidence, correct, options.min_confidence);
+  const ConfidenceMetrics m =
+      ComputeConfidenceMetrics(confidence, correct, options.sequence.min_confidence);
   s.rate = m.accuracy;
   s.ece = m.ece;
   s.ece_floor = m.ece_floor;
@@ -163,7 +165,7 @@ WalkSummary SummariseWalk(const Walk& walk, const std::vector<QueryOutcome>& out
 }
 
 KidnapSummary SummariseKidnaps(const std::vector<QueryOutcome>& outcomes, const Map& map,
-                               const SequenceOptions& options, int segments, int seeds) {
+                               const MatchOptions& options, int segments, int seeds) {
   KidnapSummary k;
   k.segments = segments;
   k.seeds = seeds;

@@ -50,13 +50,14 @@ struct SequenceRun {
   double filter_ms_median = 0;  // the filter's own time per frame
 };
 
-// Runs one session over `outcomes` (single-frame results already in) in `order`. A jump
+// Runs one session over `outcomes` (single-frame results already in, localised with
+// `options`; the session's filter from options.sequence) in `order`. A jump
 // (for Relocalisation) is a step between frames that are not neighbours in file order,
 // either way.
 // REQUIRES: options.Validate().ok(); order holds indices of the outcomes (a query may come
 // more than once, or not at all).
 SequenceRun RunSequence(const std::vector<QueryOutcome>& outcomes, const Map& map,
-                        const SequenceOptions& options, const std::vector<int>& order);
+                        const MatchOptions& options, const std::vector<int>& order);
 
 // A robot's walk along the route of a query folder in route order: the query it sends
 // at each step.
@@ -84,7 +85,7 @@ struct WalkSummary {
 
 // One session over `outcomes` along `walk`.
 WalkSummary SummariseWalk(const Walk& walk, const std::vector<QueryOutcome>& outcomes,
-                          const Map& map, const SequenceOptions& options);
+                          const Map& map, const MatchOptions& options);
 
 // The kidnapped robot over `seeds` shuffles of `segments` segments (KidnapOrder, seeds 1..
 // seeds): frames to an answer within the tolerance after each jump, over every jump.
@@ -96,6 +97,6 @@ struct KidnapSummary {
   int worst = 0;
 };
 KidnapSummary SummariseKidnaps(const std::vector<QueryOutcome>& outcomes, const Map& map,
-                               const SequenceOptions& options, int segments, int seeds);
+                               const MatchOptions& options, int segments, int seeds);
 
 }  // namespace sceneloc

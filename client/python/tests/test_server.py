@@ -21,12 +21,14 @@ Connect = Callable[[ServerProcess], sceneloc.Client]
 
 
 def check_session_state(state: bytes, num_locations: int) -> None:
-    """A session's state as server/session_token.h lays it out: "SLS4", the map's checksum,
-    N locations, S speeds, K tracked locations, ..., 36 + 4 (N + 1 + K + (K + 1) S) bytes."""
-    assert state[:4] == b"SLS4"
-    locations, speeds, tracked = struct.unpack_from("<III", state, 8)
+    """A session's state as server/session_token.h lays it out: "SLS5", the map's checksum,
+    N locations, S speeds, K tracked locations, frames, B camera bins (0 or 64), ...,
+    40 + 4 (N + 1 + K + (K + 1) S) + 2 B bytes."""
+    assert state[:4] == b"SLS5"
+    locations, speeds, tracked, _frames, bins = struct.unpack_from("<IIIII", state, 8)
     assert locations == num_locations and speeds >= 1 and 1 <= tracked <= locations
-    assert len(state) == 36 + 4 * (locations + 1 + tracked + (tracked + 1) * speeds)
+    assert bins in (0, 64)
+    assert len(state) == 40 + 4 * (locations + 1 + tracked + (tracked + 1) * speeds) + 2 * bins
 
 
 # A JPEG of a tour image is localised at its own location, LOCALISED, with everything the

@@ -96,6 +96,9 @@ class SessionAnswer:
     min_confidence: float  # the server's sequence.min_confidence
     frames: int  # frames of the session so far, this one included
     start: int  # a SessionStart
+    # How much larger the robot's camera sees things than the tour's, as the session has
+    # learnt it (1 = the tour's camera, also until learnt; 0 from an older server).
+    camera_scale: float
     # The session's filter state after this frame; the client sends it with the session's
     # next request by itself (Client.session_state).
     state: bytes = dataclasses.field(repr=False)
@@ -109,7 +112,7 @@ class SessionAnswer:
         return cls(
             m.name, m.location, m.image_name, m.probability, m.off_map,
             _enum(Decision, m.decision), m.min_confidence, m.frames,
-            _enum(SessionStart, m.start), m.state,
+            _enum(SessionStart, m.start), m.camera_scale, m.state,
         )
 
 
