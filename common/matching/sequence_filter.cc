@@ -391,10 +391,11 @@ void SequenceFilter::MeasureCamera(const FrameEvidence& evidence, const Sequence
   }
   std::vector<uint16_t>& counts = state->camera_counts;
   counts.resize(SequenceOptions::kCameraBins, 0);
+  const double range = SequenceOptions::kCameraRange;
   const int bin =
-      std::clamp(static_cast<int>(std::floor((measured + SequenceOptions::kCameraRange) /
-                                             SequenceOptions::kCameraBinWidth)),
-                 0, SequenceOptions::kCameraBins - 1);
+      std::min(static_cast<int>(std::floor((std::clamp(measured, -range, range) + range) /
+                                           SequenceOptions::kCameraBinWidth)),
+               SequenceOptions::kCameraBins - 1);
   if (counts[bin] == UINT16_MAX) {  // halve them all: the median stays, the newest count more
     for (uint16_t& c : counts) c = static_cast<uint16_t>(c / 2);
   }

@@ -26,6 +26,10 @@
 //             same look-alike fools both). With evidence_floor f > 0 the likelihood ratio
 //             is (1 - f) L + f P(in map): a frame may be uninformative (off by default).
 //   answer:   the location with the most belief over every speed.
+//   camera:   a LOCALISED answer measures how much larger the robot's camera sees things
+//             than the tour's (SequenceOptions::learn_camera_scale); once learnt, the
+//             session reads its frames' verified candidates with it (MeasureCamera,
+//             CameraLogScale).
 // The speed is state because robots keep their pace and their direction, and the pace is
 // not the tour's: a robot sending frames faster than the tour was recorded moves a fraction
 // of a location per frame, one driving faster several. The models before it (a band of
