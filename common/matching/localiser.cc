@@ -101,18 +101,39 @@ std::vector<int> RankByValue(const std::vector<float>& value) {
   return order;
 }
 
-// The confidence of the best answer in `order` with the model the map supports, and the
-// decision it implies.
-void AssessAnswer(const Map& map, const MatchOptions& options, const std::vector<float>& likelihood,
-                  const std::vector<int>& order, LocaliseResult* result) {
+// Ranks the scored candidates best first (fused score, L breaking ties) ahead of `rest` (the
+// other locations by descending L, at least top_k of them when there are), fills
+// location_scores' candidate entries, the ranked list, and the confidence of the best with
+// the model the map supports (`paper`: the paper's, which reads L alone) and the decision it
+// implies.
+void RankAndAssess(const Map& map, const MatchOptions& options,
+                   const std::vector<RankedLocation>& rest, double paper, LocaliseResult* result) {
+  std::vector<CandidateEvidence>& candidates = result->candidates;
+  for (CandidateEvidence& c : candidates) c.score = FuseEvidence(c, options);
+  ScoreCandidates(candidates, options, &result->location_scores);
+  std::stable_sort(candidates.begin(), candidates.end(),
+                   [](const CandidateEvidence& a, const CandidateEvidence& b) {
+                     return a.score > b.score ||
+                            (a.score == b.score && a.likelihood > b.likelihood);
+                   });
+  result->ranked.clear();
+  const size_t k = static_cast<size_t>(options.top_k);
+  for (size_t i = 0; i < candidates.size() && result->ranked.size() < k; ++i) {
+    const CandidateEvidence& c = candidates[i];
+    result->ranked.push_back(
+        {c.location, map.image_names[c.location], c.likelihood, c.inliers, c.log_scale});
+  }
+  for (size_t i = 0; i < rest.size() && result->ranked.size() < k; ++i) {
+    result->ranked.push_back(rest[i]);
+  }
   const ConfidenceModel wanted =
       options.confidence_model == "paper" ? ConfidenceModel::kPaper : ConfidenceModel::kCalibrated;
   result->confidence_model = SupportedModel(map, wanted);
-  if (order.empty()) return;
+  if (result->ranked.empty()) return;
   result->confidence = static_cast<float>(
       result->confidence_model == ConfidenceModel::kPaper
-          ? PaperConfidence(likelihood)
-          : CalibratedConfidence(map, result->location_scores, order[0],
+          ? paper
+          : CalibratedConfidence(map, result->location_scores, result->ranked[0].index,
                                  result->nearest_holistic_distance, options.confidence_plateau));
   result->decision =
       result->confidence >= options.min_confidence ? Decision::kLocalised : Decision::kUnknown;
@@ -184,39 +205,22 @@ StatusOr<LocaliseResult> LocaliseInFrame(const FeatureSet& features, const Map& 
 
   stage.Reset();
   VerifyCandidates(features, map, scores, options, pool, &candidates);
-  for (CandidateEvidence& c : candidates) c.score = FuseEvidence(c, options);
   result.location_scores = LocationScores(candidates, holistic_z, likelihood.size(), options);
-  // Verified candidates first by fused score (L breaks ties), then the rest by L.
-  std::stable_sort(candidates.begin(), candidates.end(),
-                   [](const CandidateEvidence& a, const CandidateEvidence& b) {
-                     return a.score > b.score ||
-                            (a.score == b.score && a.likelihood > b.likelihood);
-                   });
-  result.timings.verify_ms = stage.Milliseconds();
-
-  std::vector<int> order;
-  std::vector<bool> placed(likelihood.size(), false);
-  for (const CandidateEvidence& c : candidates) {
-    order.push_back(c.location);
-    placed[c.location] = true;
-  }
-  for (int l : by_likelihood) {
-    if (!placed[l]) order.push_back(l);
-  }
-  std::vector<const CandidateEvidence*> evidence_of(likelihood.size(), nullptr);
-  for (const CandidateEvidence& c : candidates) evidence_of[c.location] = &c;
-  const size_t k = std::min(order.size(), static_cast<size_t>(options.top_k));
-  for (size_t i = 0; i < k; ++i) {
-    const int l = order[i];
-    const CandidateEvidence* e = evidence_of[l];
-    result.ranked.push_back(
-        {l, map.image_names[l], likelihood[l], e ? e->inliers : -1, e ? e->log_scale : 0.0f});
-  }
   if (!holistic.empty()) {
     result.nearest_holistic_distance = *std::min_element(holistic.begin(), holistic.end());
   }
-  AssessAnswer(map, options, likelihood, order, &result);
+  // The locations not verified, by L: as many as a ranked list could need.
+  std::vector<bool> verified(likelihood.size(), false);
+  for (const CandidateEvidence& c : candidates) verified[c.location] = true;
+  std::vector<RankedLocation> rest;
+  for (size_t i = 0; i < by_likelihood.size() && rest.size() < static_cast<size_t>(options.top_k);
+       ++i) {
+    const int l = by_likelihood[i];
+    if (!verified[l]) rest.push_back({l, map.image_names[l], likelihood[l], -1, 0.0f});
+  }
   result.candidates = std::move(candidates);
+  RankAndAssess(map, options, rest, PaperConfidence(likelihood), &result);
+  result.timings.verify_ms = stage.Milliseconds();
   result.timings.total_ms = total.Milliseconds();
   return result;
 }
@@ -240,6 +244,18 @@ StatusOr<LocaliseResult> Localise(const FeatureSet& features, const Map& map,
     return LocaliseInFrame(features, map, options, pool);
   }
   return LocaliseInFrame(ScaledToMapFrame(features, map), map, options, pool);
+}
+
+void ReadWithCamera(const Map& map, const MatchOptions& options, LocaliseResult* result) {
+  std::vector<bool> verified(static_cast<size_t>(map.num_images()), false);
+  for (const CandidateEvidence& c : result->candidates) {
+    if (c.location >= 0 && c.location < map.num_images()) verified[c.location] = true;
+  }
+  std::vector<RankedLocation> rest;
+  for (const RankedLocation& r : result->ranked) {
+    if (r.index < 0 || r.index >= map.num_images() || !verified[r.index]) rest.push_back(r);
+  }
+  RankAndAssess(map, options, rest, result->confidence, result);
 }
 
 }  // namespace sceneloc

@@ -110,6 +110,11 @@ struct MatchOptions {
   Status Validate() const;
 };
 
+// The camera scales a request may state (LocaliseRequest.camera_scale): a focal length a
+// quarter or four times the tour camera's, relative to image width.
+inline constexpr double kMinCameraScale = 0.25;
+inline constexpr double kMaxCameraScale = 4.0;
+
 // The matching settings file's fields (configs/match.yaml), bound to `o`: matching: and
 // sequence: (match_settings.cc).
 SettingTable MatchSettings(MatchOptions* o);
@@ -175,6 +180,15 @@ struct LocaliseResult {
 // of calls may share one map and one pool. REQUIRES: map is Validate()d and Finalize()d.
 StatusOr<LocaliseResult> Localise(const FeatureSet& features, const Map& map,
                                   const MatchOptions& options, ThreadPool* pool);
+
+// Reads `result` (Localise's, with any camera) again with options.camera_log_scale: its
+// verified candidates' fused scores, their entries of location_scores, the ranking, the
+// confidence and the decision, as Localise with that camera would have answered (nothing
+// else depends on the camera). Takes min_confidence, top_k (at most the result's) and the
+// fusion settings from `options`; the paper's confidence, which reads L alone, is kept.
+// How a session reads a frame with the camera it has learnt (sequence_filter.h).
+// REQUIRES: result from Localise on `map`.
+void ReadWithCamera(const Map& map, const MatchOptions& options, LocaliseResult* result);
 
 // Per-landmark and per-location scores of one frame.
 struct FrameScores {

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <random>
 
 #include "common/matching/descriptor_similarity.h"
@@ -119,6 +120,52 @@ TEST(LocaliserTest, VerificationRanksTheTrueImageFirst) {
       EXPECT_LE(r->ranked[i].inliers, r->ranked[0].inliers);
     }
   }
+}
+
+// A result read again with a camera answers as Localise with that camera does: the same
+// ranking (the verified candidates, then the rest by L), scores, confidence and decision.
+// A robot camera whose sizes are 1.35x the tour's is what the camera changes.
+TEST(LocaliserTest, ReadWithCameraIsLocaliseWithThatCamera) {
+  const Map map = test::MakeRandomMap(15, 600, 25);
+  FeatureSet f = FeaturesOfImage(map, 9, 4);
+  for (Keypoint& k : f.keypoints) k.size *= 1.35f;
+  MatchOptions tour_camera;
+  tour_camera.verify_top = 3;  // fewer candidates than top_k: the rest are ranked by L
+  tour_camera.holistic_top = 0;
+  tour_camera.top_k = 6;
+  tour_camera.verify_scale_sigma = 0.15;
+  tour_camera.min_confidence = 0.5;
+  MatchOptions robot_camera = tour_camera;
+  robot_camera.camera_log_scale = std::log(1.35);
+  auto read = Localise(f, map, tour_camera, nullptr);
+  const auto direct = Localise(f, map, robot_camera, nullptr);
+  ASSERT_TRUE(read.ok() && direct.ok());
+  ASSERT_FALSE(read->candidates.empty());
+  const double before = read->candidates[0].score;
+  ReadWithCamera(map, robot_camera, &*read);
+  EXPECT_GT(read->candidates[0].score, before + 1e-3);  // the sizes agree with the camera's
+  ASSERT_EQ(read->ranked.size(), direct->ranked.size());
+  EXPECT_EQ(read->ranked.size(), 6u);
+  for (size_t i = 0; i < direct->ranked.size(); ++i) {
+    EXPECT_EQ(read->ranked[i].index, direct->ranked[i].index) << i;
+    EXPECT_EQ(read->ranked[i].inliers, direct->ranked[i].inliers) << i;
+    EXPECT_FLOAT_EQ(read->ranked[i].likelihood, direct->ranked[i].likelihood) << i;
+  }
+  EXPECT_EQ(read->ranked[0].index, 9);
+  ASSERT_EQ(read->candidates.size(), direct->candidates.size());
+  for (size_t i = 0; i < direct->candidates.size(); ++i) {
+    EXPECT_EQ(read->candidates[i].location, direct->candidates[i].location) << i;
+    EXPECT_DOUBLE_EQ(read->candidates[i].score, direct->candidates[i].score) << i;
+  }
+  EXPECT_EQ(read->location_scores, direct->location_scores);
+  EXPECT_FLOAT_EQ(read->confidence, direct->confidence);
+  EXPECT_EQ(read->decision, direct->decision);
+  // And back: read with the tour's camera, it is the first answer again.
+  const auto first = Localise(f, map, tour_camera, nullptr);
+  ReadWithCamera(map, tour_camera, &*read);
+  EXPECT_EQ(read->location_scores, first->location_scores);
+  EXPECT_FLOAT_EQ(read->confidence, first->confidence);
+  EXPECT_EQ(read->ranked[0].index, first->ranked[0].index);
 }
 
 // Untrusted feature sets: mismatched counts and non-finite numbers are refused.
