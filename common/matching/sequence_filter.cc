@@ -416,11 +416,11 @@ SequenceAnswer SequenceFilter::Update(const FrameEvidence& evidence, SequenceSta
     Expand(*state, &belief);
     Predict(&belief);
   }
-  // The frame's evidence read with the session's camera: only the verified candidates'
-  // scores depend on it.
-  const double camera = CameraLogScale(*state);
+  // The frame's evidence read with the session's camera (or the one its client states):
+  // only the verified candidates' scores depend on it.
+  const double camera = evidence.camera_log_scale.value_or(CameraLogScale(*state));
   const std::vector<float>* scores = &evidence.location_scores;
-  if (camera != 0 && !evidence.candidates.empty()) {
+  if (camera != evidence.fusion.camera_log_scale && !evidence.candidates.empty()) {
     work.scores = evidence.location_scores;
     MatchOptions fusion = evidence.fusion;
     fusion.camera_log_scale = camera;

@@ -47,6 +47,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "common/map/map.h"
@@ -68,6 +69,10 @@ struct FrameEvidence {
   // learn_camera_scale), and measures the scale on them. Empty: nothing to re-read.
   std::vector<CandidateEvidence> candidates;
   MatchOptions fusion;
+  // The robot camera's log scale as its client states it (LocaliseRequest.camera_scale):
+  // the frame is read with it rather than with what the session has learnt (which the
+  // session goes on measuring). Unset: the session's own.
+  std::optional<double> camera_log_scale;
 };
 
 // The evidence of a localise result against `map` (its calibration's P(in the map)),
@@ -105,7 +110,8 @@ struct SequenceAnswer {
   double off_map = 0;      // belief in "off the map"
   uint32_t frames = 0;     // frames the session has seen, this one included
   Decision decision = Decision::kUnknown;
-  // The camera's log scale the session read this frame with (0 until it has learnt one).
+  // The camera's log scale the session read this frame with: the stated one, else the
+  // learnt one (0 until it has learnt one).
   double camera_log_scale = 0;
 };
 

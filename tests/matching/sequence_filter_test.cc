@@ -342,6 +342,31 @@ TEST_F(SequenceFilterTest, LearnsTheScaleOfAnotherCamera) {
   EXPECT_NEAR(learnt, camera, 0.05);
 }
 
+// A camera its client states (LocaliseRequest.camera_scale) is the one every frame is read
+// with, from the first, whatever the session learns meanwhile: the session answers where
+// the robot is, with learning off too, and goes on measuring.
+TEST_F(SequenceFilterTest, AStatedCameraIsReadFromTheFirstFrame) {
+  const double camera = 0.3;
+  for (const bool learn : {false, true}) {
+    options_.learn_camera_scale = learn;
+    const SequenceFilter filter = Filter();
+    SequenceState state;
+    double ahead = 0;
+    for (int t = 0; t < 60; ++t) {
+      FrameEvidence frame = CameraFrame(40 + t, camera);
+      frame.camera_log_scale = camera;
+      const SequenceAnswer a = filter.Update(frame, &state);
+      EXPECT_EQ(a.camera_log_scale, camera) << "frame " << t;
+      if (t >= 40) ahead += (a.location - (40 + t)) / 20.0;
+    }
+    EXPECT_LT(std::abs(ahead), 0.5) << "learning " << learn;
+    EXPECT_EQ(state.camera_counts.empty(), !learn);
+    if (learn) {
+      EXPECT_NEAR(filter.CameraLogScale(state), camera, 0.05);
+    }
+  }
+}
+
 // The tour's own camera is learnt as the tour's: the answers are the same as without
 // learning, exactly where the robot is.
 TEST_F(SequenceFilterTest, TheToursCameraIsLearntAsItself) {
