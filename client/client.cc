@@ -174,6 +174,7 @@ class ZmqClient final : public Client {
     request.mutable_localise()->set_top_k(options.top_k);
     if (options.min_confidence)
       request.mutable_localise()->set_min_confidence(*options.min_confidence);
+    if (options.camera_scale) request.mutable_localise()->set_camera_scale(*options.camera_scale);
     request.mutable_localise()->set_session(options.session);
     request.mutable_localise()->set_reset_session(options.reset_session);
     return request;

@@ -37,6 +37,11 @@ struct LocaliseOptions {
   // Answers below this confidence come back with decision UNKNOWN; unset = the server's
   // matching.min_confidence. Outside [0, 1] the server replies INVALID_ARGUMENT.
   std::optional<float> min_confidence;
+  // How much larger the robot's camera sees things than the tour's camera did, when known
+  // (proto LocaliseRequest.camera_scale: focal length over image width, against the tour
+  // camera's; in [0.25, 4], else INVALID_ARGUMENT). Unset = the tour's camera, or in a
+  // session the scale it learns.
+  std::optional<float> camera_scale;
   // How a feature set's descriptors travel (feature-set calls only).
   DescriptorEncoding encoding = DescriptorEncoding::kFloat32;
   // The robot's session (proto LocaliseRequest.session): calls naming one session are

@@ -13,6 +13,7 @@
 // Exit status: 0 when every request was answered OK, 1 when any got an error reply or
 // none at all, 2 for bad arguments or unreadable files.
 #include <CLI/CLI.hpp>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
@@ -59,11 +60,17 @@ void PrintAnswer(const std::string& query, const v1::LocaliseReply& r) {
     return;
   }
   const v1::RankedLocation& best = r.locations(0);
-  std::printf("%s\t%d\t%s\t%s\tconfidence %.3f\tlikelihood %.4f\tmap %s@%llu\t%.1f ms\n",
+  // The camera the answer was read with, when it is not the tour's (a stated or learnt one).
+  char camera[32] = "";
+  if (r.camera_scale() > 0 && std::abs(r.camera_scale() - 1.0f) >= 0.005f) {
+    std::snprintf(camera, sizeof(camera), "\tcamera x%.2f", r.camera_scale());
+  }
+  std::printf("%s\t%d\t%s\t%s\tconfidence %.3f\tlikelihood %.4f\tmap %s@%llu\t%.1f ms%s\n",
               query.c_str(), best.index(), best.image_name().c_str(),
               r.decision() == v1::LOCALISED ? "LOCALISED" : "UNKNOWN", r.confidence(),
               best.likelihood(), r.map().name().c_str(),
-              static_cast<unsigned long long>(r.map().generation()), r.timings().total_ms());
+              static_cast<unsigned long long>(r.map().generation()), r.timings().total_ms(),
+              camera);
   if (r.has_session()) {
     const v1::SessionAnswer& s = r.session();
     std::printf(
@@ -126,6 +133,7 @@ int RunLocalise(sceneloc::Client* client, const std::string& map,
       if (options.min_confidence) {
         request.mutable_localise()->set_min_confidence(*options.min_confidence);
       }
+      if (options.camera_scale) request.mutable_localise()->set_camera_scale(*options.camera_scale);
       request.mutable_localise()->set_session(options.session);
       request.mutable_localise()->set_reset_session(options.reset_session);
       if (!request.mutable_localise()->mutable_features()->ParseFromString(*bytes)) {
@@ -230,6 +238,7 @@ struct CommandLine {
   int overload_wait_ms = sceneloc::ClientOptions().overload_wait_ms;
   sceneloc::LocaliseOptions localise_options;
   float min_confidence = -1;
+  float camera_scale = -1;
   sceneloc::ClientExtractorSource extract_source;
   KeyFiles keys;
   sceneloc::BenchArgs bench_args;
@@ -261,6 +270,12 @@ CLI::App* AddLocalise(CLI::App* app, CommandLine* c) {
       ->add_option("--min-confidence", c->min_confidence,
                    "answers below this are UNKNOWN (default: the server's)")
       ->check(CLI::Range(0.0, 1.0));
+  localise
+      ->add_option("--camera-scale", c->camera_scale,
+                   "the robot camera's focal length over image width against the tour "
+                   "camera's, when known (e.g. 1.33: a 4:3 crop of a 16:9 tour camera's sensor); "
+                   "default: the tour's, or in a session what it learns")
+      ->check(CLI::Range(0.25, 4.0));
   localise->add_option("--session", c->localise_options.session,
                        "send the inputs in order as one session (e.g. the robot's name); each "
                        "answer adds the session's filtered one");
@@ -366,6 +381,7 @@ int RunOnServer(const Commands& cmd, CommandLine* c) {
   auto client = Connect(c->server, c->timeout_ms, c->overload_wait_ms, c->keys);
   if (!client.ok()) return Error(client.status(), 2);
   if (c->min_confidence >= 0) c->localise_options.min_confidence = c->min_confidence;
+  if (c->camera_scale > 0) c->localise_options.camera_scale = c->camera_scale;
   if (cmd.localise->parsed()) {
     return RunLocalise(client->get(), c->map, c->inputs, c->features, c->localise_options);
   }

@@ -89,7 +89,7 @@ TokenOwner TokenOwnerOf(const std::string& client, const v1::LocaliseRequest& re
 }
 
 // The fields of a localise request that are checked before any work: top_k,
-// min_confidence and the session's.
+// min_confidence, camera_scale and the session's.
 Status CheckLocaliseFields(const v1::LocaliseRequest& request, int max_top_k) {
   if (request.top_k() < 0 || request.top_k() > max_top_k) {
     return InvalidArgument("top_k must be in [0, " + std::to_string(max_top_k) +
@@ -99,6 +99,13 @@ Status CheckLocaliseFields(const v1::LocaliseRequest& request, int max_top_k) {
       !(request.min_confidence() >= 0.0f && request.min_confidence() <= 1.0f)) {
     return InvalidArgument("min_confidence must be in [0, 1], got " +
                            std::to_string(request.min_confidence()));
+  }
+  if (request.has_camera_scale() &&
+      !(request.camera_scale() >= kMinCameraScale && request.camera_scale() <= kMaxCameraScale)) {
+    return InvalidArgument(
+        "camera_scale must be in [0.25, 4] (the robot camera's focal length over image width, "
+        "against the tour camera's), got " +
+        std::to_string(request.camera_scale()));
   }
   if (!request.session().empty()) SCENELOC_RETURN_IF_ERROR(CheckSessionName(request.session()));
   if (request.session().empty() && (request.reset_session() || !request.session_state().empty())) {
@@ -257,6 +264,7 @@ Status RequestHandler::HandleLocalise(const v1::LocaliseRequest& request,
   match.deadline = deadline;
   if (request.top_k() > 0) match.top_k = request.top_k();
   if (request.has_min_confidence()) match.min_confidence = request.min_confidence();
+  if (request.has_camera_scale()) match.camera_log_scale = std::log(request.camera_scale());
   StatusOr<LocaliseResult> localised = Localise(features, map->map, match, pool_);
   if (localised.status().code() == StatusCode::kDeadlineExceeded) {
     return DeadlineExceeded(localised.status().message() + "; budget " +
@@ -265,12 +273,19 @@ Status RequestHandler::HandleLocalise(const v1::LocaliseRequest& request,
                             std::to_string(timings.queue_ms()) + " ms, extraction " +
                             std::to_string(timings.extract_ms()) + " ms");
   }
-  SCENELOC_ASSIGN_OR_RETURN(const LocaliseResult result, std::move(localised));
-  FillResult(result, *map, match, reply);
+  SCENELOC_ASSIGN_OR_RETURN(LocaliseResult result, std::move(localised));
   if (!request.session().empty()) {
     const SessionSeed seed{request.reset_session(), other_map, carried ? &*carried : nullptr};
-    UpdateSession(request, client, *map, match, result, seed, reply);
+    const double camera = UpdateSession(request, client, *map, match, result, seed, reply);
+    // The frame's own answer is read with the camera the session read it with (what it has
+    // learnt, unless the request states one): the same frame, knowing the robot's camera.
+    if (camera != match.camera_log_scale) {
+      match.camera_log_scale = camera;
+      ReadWithCamera(map->map, match, &result);
+    }
   }
+  FillResult(result, *map, match, reply);
+  reply->set_camera_scale(static_cast<float>(std::exp(match.camera_log_scale)));
   reply->set_num_features(static_cast<uint32_t>(features.size()));
   v1::Timings* t = reply->mutable_timings();
   t->set_queue_ms(timings.queue_ms());
@@ -304,11 +319,12 @@ StatusOr<FeatureSet> RequestHandler::QueryFeatures(const v1::LocaliseRequest& re
   return features;
 }
 
-void RequestHandler::UpdateSession(const v1::LocaliseRequest& request, const std::string& client,
-                                   const LoadedMap& map, const MatchOptions& match,
-                                   const LocaliseResult& result, const SessionSeed& seed,
-                                   v1::LocaliseReply* reply) const {
-  const FrameEvidence evidence = EvidenceOf(result, map.map, match);
+double RequestHandler::UpdateSession(const v1::LocaliseRequest& request, const std::string& client,
+                                     const LoadedMap& map, const MatchOptions& match,
+                                     const LocaliseResult& result, const SessionSeed& seed,
+                                     v1::LocaliseReply* reply) const {
+  FrameEvidence evidence = EvidenceOf(result, map.map, match);
+  if (request.has_camera_scale()) evidence.camera_log_scale = match.camera_log_scale;
   SequenceAnswer answer;
   v1::SessionAnswer* out = reply->mutable_session();
   const TokenOwner owner = TokenOwnerOf(client, request, map);
@@ -329,6 +345,7 @@ void RequestHandler::UpdateSession(const v1::LocaliseRequest& request, const std
   out->set_frames(answer.frames);
   out->set_start(ToWireStart(start));
   out->set_camera_scale(static_cast<float>(std::exp(answer.camera_log_scale)));
+  return answer.camera_log_scale;
 }
 
 Status RequestHandler::CheckReload(const v1::ReloadMapRequest& request) {

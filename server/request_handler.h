@@ -62,10 +62,12 @@ class RequestHandler {
   StatusOr<FeatureSet> QueryFeatures(const v1::LocaliseRequest& request, const LoadedMap& map,
                                      std::chrono::steady_clock::time_point deadline,
                                      v1::Timings* timings) const;
-  // Adds the frame to its session and the session's answer to `reply`.
-  void UpdateSession(const v1::LocaliseRequest& request, const std::string& client,
-                     const LoadedMap& map, const MatchOptions& match, const LocaliseResult& result,
-                     const SessionSeed& seed, v1::LocaliseReply* reply) const;
+  // Adds the frame to its session and the session's answer to `reply`; returns the camera
+  // log scale the session read the frame with.
+  double UpdateSession(const v1::LocaliseRequest& request, const std::string& client,
+                       const LoadedMap& map, const MatchOptions& match,
+                       const LocaliseResult& result, const SessionSeed& seed,
+                       v1::LocaliseReply* reply) const;
   Status HandleReload(const v1::ReloadMapRequest& request, v1::ReloadMapReply* reply) const;
   void HandleListMaps(v1::ListMapsReply* reply) const;
   void HandleStats(v1::StatsReply* reply) const;

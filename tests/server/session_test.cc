@@ -123,6 +123,71 @@ TEST_F(SessionTest, SessionLearnsTheRobotsCamera) {
   EXPECT_NEAR(scale, 1.3f, 0.06f);
 }
 
+// A session's frame is answered on its own as a frame of that camera: once the session has
+// learnt the scale, the single-frame answer is read with it (the reply's camera_scale) and
+// is the answer a request stating that camera gets. A frame on its own is read with the
+// tour's camera (1) unless its request states one.
+TEST_F(SessionTest, TheFramesOwnAnswerIsReadWithTheSessionsCamera) {
+  const auto zoomed = [](int i) {
+    FeatureSet features = test::TourFeatures(i);
+    for (Keypoint& k : features.keypoints) k.size *= 1.3f;
+    return features;
+  };
+  LocaliseOptions in_session;
+  in_session.session = "zoomed";
+  StatusOr<v1::LocaliseReply> last = InvalidArgument("no frame");
+  int changed = 0;  // frames whose ranking the camera changed
+  for (int i = 0; i < kTestTourLocations; ++i) {
+    last = client_->Localise(kTestMapName, zoomed(i), in_session);
+    ASSERT_TRUE(last.ok()) << last.status().ToString();
+    EXPECT_FLOAT_EQ(last->camera_scale(), last->session().camera_scale()) << "frame " << i;
+    auto alone = client_->Localise(kTestMapName, zoomed(i));
+    ASSERT_TRUE(alone.ok());
+    std::vector<int> a, b;
+    for (const auto& r : last->locations()) a.push_back(r.index());
+    for (const auto& r : alone->locations()) b.push_back(r.index());
+    changed += a != b || last->confidence() != alone->confidence();
+  }
+  EXPECT_GT(changed, 0);  // the camera is what changes them
+  ASSERT_NEAR(last->camera_scale(), 1.3f, 0.06f);
+  const int i = kTestTourLocations - 1;
+  auto alone = client_->Localise(kTestMapName, zoomed(i));
+  ASSERT_TRUE(alone.ok());
+  EXPECT_FLOAT_EQ(alone->camera_scale(), 1.0f);
+  LocaliseOptions stated;
+  stated.camera_scale = last->camera_scale();
+  auto told = client_->Localise(kTestMapName, zoomed(i), stated);
+  ASSERT_TRUE(told.ok());
+  EXPECT_FLOAT_EQ(told->camera_scale(), last->camera_scale());
+  EXPECT_NEAR(told->confidence(), last->confidence(), 1e-3);
+  EXPECT_EQ(told->locations(0).index(), last->locations(0).index());
+}
+
+// A camera the request states is the session's from its first frame; out of [0.25, 4] it is
+// refused by name and the server goes on serving.
+TEST_F(SessionTest, AStatedCameraIsTheSessions) {
+  LocaliseOptions options;
+  options.session = "told";
+  options.camera_scale = 1.3f;
+  for (int i = 0; i < 3; ++i) {
+    auto reply = client_->Localise(kTestMapName, test::TourFeatures(i), options);
+    ASSERT_TRUE(reply.ok()) << reply.status().ToString();
+    EXPECT_FLOAT_EQ(reply->session().camera_scale(), 1.3f) << "frame " << i;
+    EXPECT_FLOAT_EQ(reply->camera_scale(), 1.3f) << "frame " << i;
+  }
+  for (const float bad : {0.2f, 4.5f, std::nanf("")}) {
+    options.camera_scale = bad;
+    auto refused = client_->Localise(kTestMapName, test::TourFeatures(0), options);
+    ASSERT_FALSE(refused.ok());
+    EXPECT_NE(
+        refused.status().message().find("INVALID_ARGUMENT: camera_scale must be in [0.25, 4]"),
+        std::string::npos)
+        << refused.status().message();
+  }
+  options.camera_scale.reset();
+  EXPECT_TRUE(client_->Localise(kTestMapName, test::TourFeatures(0), options).ok());
+}
+
 // Two robots on one map, their frames interleaved on two connections: each session counts
 // only its own frames, and robot A's answers are those it gets when it walks alone.
 TEST_F(SessionTest, TwoSessionsDoNotDisturbEachOther) {

@@ -61,6 +61,17 @@ def test_top_k_and_min_confidence_are_sent(
     assert reply.min_confidence == pytest.approx(0.25)
 
 
+# The camera: a frame on its own is read with the tour's (1) unless the request states one,
+# and the reply says which.
+def test_camera_scale_is_sent_and_reported(
+    client: sceneloc.Client, map_name: str, query_jpeg: bytes
+) -> None:
+    assert client.localise_jpeg(map_name, query_jpeg).camera_scale == pytest.approx(1.0)
+    stated = client.localise_jpeg(map_name, query_jpeg, camera_scale=1.25)
+    assert stated.camera_scale == pytest.approx(1.25)
+    assert stated.best is not None
+
+
 # The thin-client path: the file `sceneloc extract` wrote, float32 or uint8, read into a
 # FeatureSet and sent, is localised like the JPEG it came from (no decoding on the server).
 @pytest.mark.parametrize("encoding", ["float32", "uint8"])

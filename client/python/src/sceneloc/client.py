@@ -106,6 +106,7 @@ class Client:
         session: str = "",
         reset_session: bool = False,
         session_state: bytes = b"",
+        camera_scale: Optional[float] = None,
     ) -> LocaliseReply:
         """Localises one camera frame, a whole JPEG file, against `map`. The server extracts
         its features with the map's own settings.
@@ -121,6 +122,10 @@ class Client:
         reset_session: forget the session's past before this frame.
         session_state: continue from this state (a SessionAnswer.state, e.g. from another
           client or saved across a restart) instead of this client's own.
+        camera_scale: how much larger the robot's camera sees things than the tour's camera
+          did, when known: focal length over image width, against the tour camera's (e.g.
+          1.33 for a 4:3 crop of a 16:9 tour camera's sensor); in [0.25, 4]. None = the
+          tour's camera, or in a session the scale it learns (SessionAnswer.camera_scale).
 
         Raises the SceneLocError of an error reply (an unknown place is not one: the reply's
         decision is UNKNOWN), Timeout, or ValueError / TypeError for bad arguments.
@@ -130,7 +135,7 @@ class Client:
         if not jpeg:
             raise ValueError("jpeg is empty")
         request = localise_request(
-            map, top_k, min_confidence, session, reset_session, session_state
+            map, top_k, min_confidence, session, reset_session, session_state, camera_scale
         )
         request.localise.jpeg = bytes(jpeg)
         return LocaliseReply.from_proto(self._typed(request).localise)
@@ -144,6 +149,7 @@ class Client:
         session: str = "",
         reset_session: bool = False,
         session_state: bytes = b"",
+        camera_scale: Optional[float] = None,
     ) -> LocaliseReply:
         """Localises a frame from its features (the thin-client path): a FeatureSet, a
         sceneloc.pb.FeatureSet, or one already serialised (bytes: e.g. the content of a
@@ -166,7 +172,7 @@ class Client:
                 f"serialised bytes, not {type(features).__name__}"
             )
         request = localise_request(
-            map, top_k, min_confidence, session, reset_session, session_state
+            map, top_k, min_confidence, session, reset_session, session_state, camera_scale
         )
         appended = length_delimited(2, length_delimited(4, data))
         return LocaliseReply.from_proto(self._typed(request, appended).localise)

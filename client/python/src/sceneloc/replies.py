@@ -133,6 +133,9 @@ class LocaliseReply:
     num_features: int  # query features matched
     descriptor_matches: int  # feature-landmark pairs with S_D >= s_min
     session: Optional[SessionAnswer]  # set when the request named a session
+    # The camera scale the answer was read with: the request's camera_scale, else in a
+    # session the one it learnt, else 1 (the tour's camera); 0 from an older server.
+    camera_scale: float
     raw: pb.LocaliseReply = dataclasses.field(repr=False, compare=False)
 
     @property
@@ -159,6 +162,7 @@ class LocaliseReply:
             num_features=m.num_features,
             descriptor_matches=m.descriptor_matches,
             session=SessionAnswer.from_proto(m.session) if m.HasField("session") else None,
+            camera_scale=m.camera_scale,
             raw=m,
         )
 

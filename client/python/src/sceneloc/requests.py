@@ -41,6 +41,11 @@ def _check_session(session: str) -> None:
         )
 
 
+# LocaliseRequest.camera_scale's range (common/matching/localiser.h kMinCameraScale..).
+_MIN_CAMERA_SCALE = 0.25
+_MAX_CAMERA_SCALE = 4.0
+
+
 def localise_request(
     map: str,
     top_k: int,
@@ -48,6 +53,7 @@ def localise_request(
     session: str,
     reset_session: bool,
     session_state: bytes,
+    camera_scale: Optional[float] = None,
 ) -> pb.Request:
     """The Request of a localise call, its query (jpeg or features) still to be set, from
     the call's arguments (Client.localise_jpeg says what they mean) once they are checked."""
@@ -60,6 +66,15 @@ def localise_request(
         or not 0 <= min_confidence <= 1  # NaN fails too
     ):
         raise ValueError(f"min_confidence must be in [0, 1] or None, not {min_confidence!r}")
+    if camera_scale is not None and (
+        isinstance(camera_scale, bool)
+        or not isinstance(camera_scale, (int, float))
+        or not _MIN_CAMERA_SCALE <= camera_scale <= _MAX_CAMERA_SCALE  # NaN fails too
+    ):
+        raise ValueError(
+            f"camera_scale must be in [{_MIN_CAMERA_SCALE}, {_MAX_CAMERA_SCALE}] or None, "
+            f"not {camera_scale!r}"
+        )
     _check_session(session)
     if not isinstance(reset_session, bool):
         raise TypeError(f"reset_session must be a bool, not {type(reset_session).__name__}")
@@ -73,6 +88,8 @@ def localise_request(
     localise.top_k = top_k
     if min_confidence is not None:
         localise.min_confidence = float(min_confidence)
+    if camera_scale is not None:
+        localise.camera_scale = float(camera_scale)
     localise.session = session
     localise.reset_session = reset_session
     localise.session_state = bytes(session_state)
