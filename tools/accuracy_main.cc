@@ -35,11 +35,9 @@ struct Row {
 };
 
 std::vector<Row> Rows(const sl::SetResult& r) {
-  return {{"sceneloc", &r.summary.ours},
-          {"session", &r.session},
-          {"paper", &r.paper},
-          {"baseline", &r.summary.baseline},
-          {"baseline+ransac", &r.summary.reranked}};
+  return {{"sceneloc", &r.summary.ours},     {"in session", &r.in_session},
+          {"session", &r.session},           {"paper", &r.paper},
+          {"baseline", &r.summary.baseline}, {"baseline+ransac", &r.summary.reranked}};
 }
 
 nlohmann::json MethodJson(const sl::MethodSummary& m) {
@@ -55,17 +53,19 @@ nlohmann::json QueriesJson(const sl::SetResult& r) {
   nlohmann::json out = nlohmann::json::array();
   for (size_t q = 0; q < r.outcomes.size(); ++q) {
     const sl::QueryOutcome& o = r.outcomes[q];
-    out.push_back({{"query", o.name},
-                   {"truth", o.truth},
-                   {"sceneloc", {o.ours.predicted, o.ours.confidence}},
-                   {"session", {r.session_outcomes[q].predicted, r.session_outcomes[q].confidence}},
-                   {"paper", {r.paper_outcomes[q].predicted, r.paper_outcomes[q].confidence}},
-                   {"baseline", {o.baseline.predicted, o.baseline.confidence}},
-                   {"baseline+ransac", {o.reranked.predicted, o.reranked.confidence}},
-                   // What our confidence is made of (common/matching/confidence.h): every
-                   // location's fused evidence and P(in the map), so that its constants can
-                   // be re-fitted offline (scripts/fit_confidence.py).
-                   {"evidence", {{"in_map", o.in_map}, {"scores", o.location_scores}}}});
+    out.push_back(
+        {{"query", o.name},
+         {"truth", o.truth},
+         {"sceneloc", {o.ours.predicted, o.ours.confidence}},
+         {"in session", {r.in_session_outcomes[q].predicted, r.in_session_outcomes[q].confidence}},
+         {"session", {r.session_outcomes[q].predicted, r.session_outcomes[q].confidence}},
+         {"paper", {r.paper_outcomes[q].predicted, r.paper_outcomes[q].confidence}},
+         {"baseline", {o.baseline.predicted, o.baseline.confidence}},
+         {"baseline+ransac", {o.reranked.predicted, o.reranked.confidence}},
+         // What our confidence is made of (common/matching/confidence.h): every
+         // location's fused evidence and P(in the map), so that its constants can
+         // be re-fitted offline (scripts/fit_confidence.py).
+         {"evidence", {{"in_map", o.in_map}, {"scores", o.location_scores}}}});
   }
   return out;
 }

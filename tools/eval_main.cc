@@ -9,6 +9,7 @@
 // session needs to find the robot again after each jump. --reverse runs the session over
 // the queries in reverse file order: a robot backing up the route.
 #include <CLI/CLI.hpp>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -47,6 +48,7 @@ struct Args {
   int kidnap = 0;
   uint32_t seed = 1;
   bool reverse = false;
+  double camera_scale = 1;  // the query camera as a client would state it; 1 = the tour's
   int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
 };
 
@@ -169,8 +171,12 @@ std::optional<SessionReport> RunSession(const Args& args, const sl::Map& map,
   const std::vector<int> order =
       sl::KidnapOrder(outcomes->size(), args.kidnap, args.seed, args.reverse);
   *run = sl::RunSequence(*outcomes, map, options, order);
-  SessionReport session{sl::SummariseMethod(*outcomes, sl::Method::kOurs, judging), &**run,
-                        *outcomes, args.kidnap, args.reverse};
+  SessionReport session{sl::SummariseMethod(*outcomes, sl::Method::kOurs, judging),
+                        sl::SummariseMethod((*run)->in_session, sl::Method::kOurs, judging),
+                        &**run,
+                        *outcomes,
+                        args.kidnap,
+                        args.reverse};
   for (size_t q = 0; q < outcomes->size(); ++q) (*outcomes)[q].ours = (*run)->filtered[q].ours;
   return session;
 }
@@ -206,6 +212,7 @@ sl::Status WriteOutputs(const Args& args, const sl::EvalReport& report) {
 int Run(const Args& args) {
   sl::MatchOptions options;
   if (sl::Status s = LoadOptions(args, &options); !s.ok()) return Fail(s.message());
+  options.camera_log_scale = std::log(args.camera_scale);
   sl::Stopwatch load_watch;
   auto map = sl::LoadMap(args.map_path);
   if (!map.ok()) return Fail(map.status().message());
@@ -273,6 +280,10 @@ int main(int argc, char** argv) {
   app.add_flag("--reverse", args.reverse,
                "the session walks the queries in reverse file order (a robot backing up the "
                "route); implies --sequence");
+  app.add_option("--camera-scale", args.camera_scale,
+                 "the query camera as a client states it (LocaliseRequest.camera_scale): focal "
+                 "length over image width against the tour camera's; 1 = the tour's")
+      ->check(CLI::Range(sl::kMinCameraScale, sl::kMaxCameraScale));
   CLI11_PARSE(app, argc, argv);
   if (print_config) {
     sl::MatchOptions options;

@@ -69,17 +69,23 @@ TEST_F(EvalReportTest, JsonHoldsTheFiguresThatRan) {
   EXPECT_EQ(with["negatives"]["accepted"], 2);
 }
 
-// A session adds its single-frame figures, its relocalisation counts (for a kidnap) and
-// each query's single-frame answer.
+// A session adds its single-frame figures (alone and in the session), its relocalisation
+// counts (for a kidnap) and each query's single-frame answer.
 TEST_F(EvalReportTest, JsonAddsTheSession) {
   SequenceRun run;
   run.relocalisation.to_correct = {1, 3};
   run.relocalisation.to_localised = {2, 4};
   std::vector<QueryOutcome> single = ThreeOutcomes();
   single[1].ours.predicted = 1;
-  const SessionReport session{SummariseMethod(single, Method::kOurs), &run, single, 2};
+  std::vector<QueryOutcome> in_session = ThreeOutcomes();
+  in_session[0].ours.predicted = 3;  // none exact, where single has two
+  const SessionReport session{SummariseMethod(single, Method::kOurs),
+                              SummariseMethod(in_session, Method::kOurs), &run, single, 2};
   report_.session = &session;
   const nlohmann::json j = ReportJson(report_);
+  EXPECT_DOUBLE_EQ(j["session"]["in_session"]["match_rate"]["0"].get<double>(),
+                   session.in_session.match_rate[0]);
+  EXPECT_NE(session.in_session.match_rate[0], session.single.match_rate[0]);
   EXPECT_EQ(j["session"]["kidnap_segments"], 2);
   EXPECT_EQ(j["session"]["frames_to_correct"]["per_jump"], (std::vector<int>{1, 3}));
   EXPECT_EQ(j["session"]["frames_to_localised"]["max"], 4);

@@ -351,6 +351,9 @@ StatusOr<SetResult> RunSet(const SuiteSet& set, const SuiteSettings& settings,
   const SequenceRun run = RunSequence(result.outcomes, ours.map, settings.match,
                                       KidnapOrder(result.outcomes.size(), 1, 0));
   for (const QueryOutcome& o : run.filtered) result.session_outcomes.push_back(o.ours);
+  for (const QueryOutcome& o : run.in_session) result.in_session_outcomes.push_back(o.ours);
+  result.in_session = SummariseMethod(run.in_session, Method::kOurs,
+                                      {settings.train.tolerance, settings.match.min_confidence});
   result.session =
       SummariseMethod(run.filtered, Method::kOurs,
                       {settings.train.tolerance, settings.match.sequence.min_confidence});

@@ -66,6 +66,10 @@ struct SetResult {
   // at the session's min_confidence.
   MethodSummary session;
   std::vector<MethodOutcome> session_outcomes;
+  // Ours one frame at a time as the session's requests get them: read with the camera the
+  // session has learnt (SequenceRun::in_session), judged at matching's min_confidence.
+  MethodSummary in_session;
+  std::vector<MethodOutcome> in_session_outcomes;
   // The session on every walk of StandardWalks, and the kidnapped robot (5 segments, 5
   // seeds), on the same single-frame evidence.
   std::vector<WalkSummary> walks;

@@ -65,6 +65,7 @@ nlohmann::json RelocalisationJson(const std::vector<int>& frames) {
 
 nlohmann::json SessionJson(const SessionReport& r) {
   nlohmann::json j = {{"single_frame", MethodJson(r.single)},
+                      {"in_session", MethodJson(r.in_session)},
                       {"filter_ms_median", r.run->filter_ms_median},
                       {"kidnap_segments", r.kidnap},
                       {"reversed", r.reversed}};
@@ -110,7 +111,10 @@ void PrintTables(const EvalReport& r) {
               r.threads);
   std::printf("method     exact   ±1     ±2     ±3     confidence  match ms (median  p90)\n");
   PrintMethod("sceneloc", s.ours, r.tolerance);
-  if (session != nullptr) PrintMethod("single", session->single, r.tolerance);
+  if (session != nullptr) {
+    PrintMethod("single", session->single, r.tolerance);
+    PrintMethod("in sess.", session->in_session, r.tolerance);
+  }
   if (r.with_baseline) {
     PrintMethod("baseline", s.baseline, r.tolerance);
     PrintMethod("+ransac", s.reranked, r.tolerance);
@@ -122,7 +126,10 @@ void PrintTables(const EvalReport& r) {
       ConfidenceModelName(model), map.options.tolerance, options.min_confidence);
   std::printf("method     PR-AUC  R@100P  ECE (floor)     correct accepted  precision\n");
   PrintConfidence("sceneloc", s.ours);
-  if (session != nullptr) PrintConfidence("single", session->single);
+  if (session != nullptr) {
+    PrintConfidence("single", session->single);
+    PrintConfidence("in sess.", session->in_session);
+  }
   if (r.with_baseline) {
     PrintConfidence("baseline", s.baseline);
     PrintConfidence("+ransac", s.reranked);
@@ -143,7 +150,8 @@ void PrintNegativesAndSession(const EvalReport& r) {
     const SequenceFilter filter(*r.map, r.options->sequence);
     std::printf(
         "session: the queries in %s as one session (sceneloc row; single = the same frames one "
-        "by one); speeds up to %d locations per frame up the route, %d down it, filter %.3f ms "
+        "by one; in sess. = each frame's own answer in the session, read with its camera); speeds "
+        "up to %d locations per frame up the route, %d down it, filter %.3f ms "
         "per frame\n",
         (std::string(session->reversed ? "reverse file order" : "file order") +
          (session->kidnap > 1 ? ", in " + std::to_string(session->kidnap) + " shuffled segments"

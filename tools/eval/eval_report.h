@@ -27,6 +27,8 @@ struct Negatives {
 // and for a kidnap the frames to find the robot again after each jump.
 struct SessionReport {
   MethodSummary single;
+  // The frames one at a time as the session's requests get them (SequenceRun::in_session).
+  MethodSummary in_session;
   const SequenceRun* run = nullptr;
   std::vector<QueryOutcome> single_outcomes;
   int kidnap = 0;

@@ -194,7 +194,11 @@ Status RunOurs(const std::vector<FeatureSet>& queries, const Map& map, const Mat
     o.stages = r.timings;
     o.candidates = r.candidates;
     o.location_scores = r.location_scores;
-    o.in_map = EvidenceOf(r, map, options).in_map;
+    o.in_map = r.nearest_holistic_distance >= 0 && map.calibration.valid
+                   ? InMapProbability(map, r.nearest_holistic_distance)
+                   : -1;
+    o.ranked = r.ranked;
+    o.nearest_holistic_distance = r.nearest_holistic_distance;
     o.keypoints = queries[q].size();
   }
   return Status::Ok();

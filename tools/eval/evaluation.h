@@ -44,6 +44,8 @@ struct QueryOutcome {
   std::vector<CandidateEvidence> candidates;  // ours, the verified candidates
   std::vector<float> location_scores;         // ours, every location's fused evidence
   double in_map = -1;                         // ours, P(in the map); -1 unknown
+  std::vector<RankedLocation> ranked;         // ours, the ranked answer
+  float nearest_holistic_distance = -1;       // ours, LocaliseResult's
   int keypoints = 0;                          // the query's feature count
   MethodOutcome baseline;                     // FLANN votes (when the baselines ran)
   MethodOutcome reranked;                     // the same, top 10 re-ranked by RANSAC inliers

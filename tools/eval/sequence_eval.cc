@@ -20,6 +20,26 @@ bool KeepsANeighbour(const std::vector<int>& runs) {
   return false;
 }
 
+// The single-frame answer of `o` read with `camera` (a session's), as the server answers a
+// session's request.
+MethodOutcome ReadWithCamera(const QueryOutcome& o, const Map& map, const MatchOptions& options,
+                             double camera) {
+  if (camera == options.camera_log_scale || o.ranked.empty()) return o.ours;
+  LocaliseResult r;
+  r.ranked = o.ranked;
+  r.candidates = o.candidates;
+  r.location_scores = o.location_scores;
+  r.nearest_holistic_distance = o.nearest_holistic_distance;
+  r.confidence = o.ours.confidence;
+  MatchOptions read = options;
+  read.camera_log_scale = camera;
+  ReadWithCamera(map, read, &r);
+  MethodOutcome out = o.ours;
+  out.predicted = r.ranked[0].index;
+  out.confidence = r.confidence;
+  return out;
+}
+
 }  // namespace
 
 std::vector<int> KidnapOrder(size_t n, int segments, uint32_t seed, bool reversed) {
@@ -53,6 +73,7 @@ SequenceRun RunSequence(const std::vector<QueryOutcome>& outcomes, const Map& ma
   const SequenceFilter filter(map, options.sequence);
   SequenceRun run;
   run.filtered = outcomes;
+  run.in_session = outcomes;
   SequenceState state;
   std::vector<double> ms;
   const int tolerance = map.options.tolerance;
@@ -67,11 +88,16 @@ SequenceRun RunSequence(const std::vector<QueryOutcome>& outcomes, const Map& ma
       }
       since_jump_correct = since_jump_localised = 0;
     }
-    const FrameEvidence evidence{outcomes[q].location_scores, outcomes[q].in_map,
-                                 outcomes[q].candidates, options};
+    // A camera in `options` is the robot's as its client states it (sceneloc-eval
+    // --camera-scale; LocaliseRequest.camera_scale).
+    const FrameEvidence evidence{
+        outcomes[q].location_scores, outcomes[q].in_map, outcomes[q].candidates, options,
+        options.camera_log_scale != 0 ? std::optional<double>(options.camera_log_scale)
+                                      : std::nullopt};
     Stopwatch watch;
     const SequenceAnswer a = filter.Update(evidence, &state);
     ms.push_back(watch.Milliseconds());
+    run.in_session[q].ours = ReadWithCamera(outcomes[q], map, options, a.camera_log_scale);
     QueryOutcome& o = run.filtered[q];
     o.ours.predicted = a.location;
     o.ours.confidence = static_cast<float>(a.probability);

@@ -45,6 +45,10 @@ struct SequenceRun {
   // confidence = the session's probability within the tolerance). A query sent more than
   // once keeps its last answer.
   std::vector<QueryOutcome> filtered;
+  // The outcomes with `ours` replaced by the single-frame answers as the session's requests
+  // get them: read with the camera the session read each frame with (ReadWithCamera;
+  // LocaliseReply.camera_scale). A query sent more than once keeps its last.
+  std::vector<QueryOutcome> in_session;
   std::vector<SequenceStep> steps;  // every step, in order
   Relocalisation relocalisation;
   double filter_ms_median = 0;  // the filter's own time per frame
