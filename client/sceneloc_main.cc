@@ -275,7 +275,15 @@ CLI::App* AddLocalise(CLI::App* app, CommandLine* c) {
                    "the robot camera's focal length over image width against the tour "
                    "camera's, when known (e.g. 1.33: a 4:3 crop of a 16:9 tour camera's sensor); "
                    "default: the tour's, or in a session what it learns")
-      ->check(CLI::Range(0.25, 4.0));
+      ->check(CLI::Validator(
+          [](std::string& text) {
+            double x = 0;
+            if (!CLI::detail::lexical_cast(text, x) || !std::isfinite(x) || x < 0.25 || x > 4) {
+              return std::string("must be a number in [0.25, 4]");
+            }
+            return std::string();
+          },
+          "in [0.25, 4]"));
   localise->add_option("--session", c->localise_options.session,
                        "send the inputs in order as one session (e.g. the robot's name); each "
                        "answer adds the session's filtered one");

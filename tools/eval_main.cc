@@ -48,9 +48,23 @@ struct Args {
   int kidnap = 0;
   uint32_t seed = 1;
   bool reverse = false;
-  double camera_scale = 1;  // the query camera as a client would state it; 1 = the tour's
+  double camera_scale = 0;  // the query camera as a client would state it; 0 = not stated
   int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
 };
+
+// A stated camera scale's range; CLI::Range alone lets NaN through.
+CLI::Validator CameraScaleRange() {
+  return CLI::Validator(
+      [](std::string& text) {
+        double x = 0;
+        if (!CLI::detail::lexical_cast(text, x) || !std::isfinite(x) || x < sl::kMinCameraScale ||
+            x > sl::kMaxCameraScale) {
+          return std::string("must be a number in [0.25, 4]");
+        }
+        return std::string();
+      },
+      "in [0.25, 4]");
+}
 
 // The images of a folder extracted in the map's frame, one at a time (so extract times are
 // those of one frame on one core); warns when their sizes differ.
@@ -170,7 +184,9 @@ std::optional<SessionReport> RunSession(const Args& args, const sl::Map& map,
   const sl::Judging judging{map.options.tolerance, options.min_confidence};
   const std::vector<int> order =
       sl::KidnapOrder(outcomes->size(), args.kidnap, args.seed, args.reverse);
-  *run = sl::RunSequence(*outcomes, map, options, order);
+  *run = sl::RunSequence(
+      *outcomes, map, options, order,
+      args.camera_scale > 0 ? std::optional<double>(options.camera_log_scale) : std::nullopt);
   SessionReport session{sl::SummariseMethod(*outcomes, sl::Method::kOurs, judging),
                         sl::SummariseMethod((*run)->in_session, sl::Method::kOurs, judging),
                         &**run,
@@ -212,7 +228,7 @@ sl::Status WriteOutputs(const Args& args, const sl::EvalReport& report) {
 int Run(const Args& args) {
   sl::MatchOptions options;
   if (sl::Status s = LoadOptions(args, &options); !s.ok()) return Fail(s.message());
-  options.camera_log_scale = std::log(args.camera_scale);
+  if (args.camera_scale > 0) options.camera_log_scale = std::log(args.camera_scale);
   sl::Stopwatch load_watch;
   auto map = sl::LoadMap(args.map_path);
   if (!map.ok()) return Fail(map.status().message());
@@ -282,8 +298,9 @@ int main(int argc, char** argv) {
                "route); implies --sequence");
   app.add_option("--camera-scale", args.camera_scale,
                  "the query camera as a client states it (LocaliseRequest.camera_scale): focal "
-                 "length over image width against the tour camera's; 1 = the tour's")
-      ->check(CLI::Range(sl::kMinCameraScale, sl::kMaxCameraScale));
+                 "length over image width against the tour camera's (default: not stated: the "
+                 "tour's, or in a session what it learns)")
+      ->check(CameraScaleRange());
   CLI11_PARSE(app, argc, argv);
   if (print_config) {
     sl::MatchOptions options;

@@ -111,13 +111,15 @@ void RankAndAssess(const Map& map, const MatchOptions& options,
   std::vector<CandidateEvidence>& candidates = result->candidates;
   for (CandidateEvidence& c : candidates) c.score = FuseEvidence(c, options);
   ScoreCandidates(candidates, options, &result->location_scores);
+  // Exact ties of both go to the earlier candidate as selected (by L, then holistic rank):
+  // kept by ReadWithCamera, which sorts the candidates in that order first.
   std::stable_sort(candidates.begin(), candidates.end(),
                    [](const CandidateEvidence& a, const CandidateEvidence& b) {
                      return a.score > b.score ||
                             (a.score == b.score && a.likelihood > b.likelihood);
                    });
   result->ranked.clear();
-  const size_t k = static_cast<size_t>(options.top_k);
+  const size_t k = static_cast<size_t>(std::max(1, options.top_k));
   for (size_t i = 0; i < candidates.size() && result->ranked.size() < k; ++i) {
     const CandidateEvidence& c = candidates[i];
     result->ranked.push_back(
@@ -218,9 +220,9 @@ StatusOr<LocaliseResult> LocaliseInFrame(const FeatureSet& features, const Map& 
     const int l = by_likelihood[i];
     if (!verified[l]) rest.push_back({l, map.image_names[l], likelihood[l], -1, 0.0f});
   }
+  result.timings.verify_ms = stage.Milliseconds();
   result.candidates = std::move(candidates);
   RankAndAssess(map, options, rest, PaperConfidence(likelihood), &result);
-  result.timings.verify_ms = stage.Milliseconds();
   result.timings.total_ms = total.Milliseconds();
   return result;
 }
@@ -255,7 +257,25 @@ void ReadWithCamera(const Map& map, const MatchOptions& options, LocaliseResult*
   for (const RankedLocation& r : result->ranked) {
     if (r.index < 0 || r.index >= map.num_images() || !verified[r.index]) rest.push_back(r);
   }
-  RankAndAssess(map, options, rest, result->confidence, result);
+  // The candidates in the order SelectCandidates chose them, which breaks exact ties: the
+  // verify_top best by L (lower location first on equal L, as RankByValue), then the others
+  // by holistic rank.
+  std::vector<CandidateEvidence>& candidates = result->candidates;
+  std::sort(candidates.begin(), candidates.end(),
+            [](const CandidateEvidence& a, const CandidateEvidence& b) {
+              return a.likelihood > b.likelihood ||
+                     (a.likelihood == b.likelihood && a.location < b.location);
+            });
+  const auto by_l =
+      candidates.begin() + std::min<ptrdiff_t>(std::max(0, options.verify_top),
+                                               static_cast<ptrdiff_t>(candidates.size()));
+  std::sort(by_l, candidates.end(), [](const CandidateEvidence& a, const CandidateEvidence& b) {
+    return a.holistic_rank < b.holistic_rank;
+  });
+  // The paper's confidence reads L alone: a result scored with it keeps it.
+  MatchOptions read = options;
+  read.confidence_model = ConfidenceModelName(result->confidence_model);
+  RankAndAssess(map, read, rest, result->confidence, result);
 }
 
 }  // namespace sceneloc

@@ -77,8 +77,8 @@ struct MatchOptions {
   double verify_scale_sigma = 0.25;
   // Not a setting: log(robot camera's size / tour camera's) of one thing seen from the same
   // place, i.e. the two focal lengths' ratio in the map's frame. The scale cue measures
-  // agreement from it instead of from 0. A session learns it (sequence_filter.h); single
-  // frames assume the tour's camera (0).
+  // agreement from it instead of from 0. A request may state it (LocaliseRequest.
+  // camera_scale) and a session learns it (sequence_filter.h); else the tour's camera (0).
   double camera_log_scale = 0;
   // Fusion of the evidence (FuseEvidence in localiser.cc): a candidate's score is its
   // holistic z-score plus verify_weight for every scale-weighted inlier above
@@ -184,10 +184,12 @@ StatusOr<LocaliseResult> Localise(const FeatureSet& features, const Map& map,
 // Reads `result` (Localise's, with any camera) again with options.camera_log_scale: its
 // verified candidates' fused scores, their entries of location_scores, the ranking, the
 // confidence and the decision, as Localise with that camera would have answered (nothing
-// else depends on the camera). Takes min_confidence, top_k (at most the result's) and the
-// fusion settings from `options`; the paper's confidence, which reads L alone, is kept.
-// How a session reads a frame with the camera it has learnt (sequence_filter.h).
-// REQUIRES: result from Localise on `map`.
+// else depends on the camera). Takes min_confidence, top_k (at most the result's),
+// confidence_plateau and the fusion settings from `options`; the confidence model is the
+// result's (the paper's reads L alone and is kept). The server reads a session's frame
+// with the session's camera this way (server/request_handler.cc).
+// REQUIRES: result from Localise on `map` with `options` but for the camera and the
+// settings named above.
 void ReadWithCamera(const Map& map, const MatchOptions& options, LocaliseResult* result);
 
 // Per-landmark and per-location scores of one frame.

@@ -60,7 +60,8 @@ struct SequenceOptions {
   // inliers (12: 1.5x the chance level), the inlier-weighted median log size ratio of those
   // candidates (above chance) is one measurement; the median of every measurement so far,
   // once there are camera_min_frames of them, is the camera's (MatchOptions::
-  // camera_log_scale) for the session's next frames. Single frames assume the tour's camera.
+  // camera_log_scale) for the session's next frames, the session's answer and each frame's
+  // own. Frames outside a session assume the tour's camera unless their request states one.
   // Measured: docs/results.md "Sessions learn the robot's camera".
   bool learn_camera_scale = true;
   int camera_min_inliers = 12;

@@ -166,6 +166,24 @@ TEST(LocaliserTest, ReadWithCameraIsLocaliseWithThatCamera) {
   EXPECT_EQ(read->location_scores, first->location_scores);
   EXPECT_FLOAT_EQ(read->confidence, first->confidence);
   EXPECT_EQ(read->ranked[0].index, first->ranked[0].index);
+  // More candidates than top_k, and the paper's confidence (L alone) kept as it was.
+  tour_camera.verify_top = 8;
+  tour_camera.top_k = 3;
+  tour_camera.confidence_model = "paper";
+  robot_camera = tour_camera;
+  robot_camera.camera_log_scale = std::log(1.35);
+  auto paper = Localise(f, map, tour_camera, nullptr);
+  const auto paper_direct = Localise(f, map, robot_camera, nullptr);
+  ASSERT_TRUE(paper.ok() && paper_direct.ok());
+  ASSERT_EQ(paper->confidence_model, ConfidenceModel::kPaper);
+  ReadWithCamera(map, robot_camera, &*paper);
+  ASSERT_EQ(paper->ranked.size(), 3u);
+  for (size_t i = 0; i < 3; ++i) EXPECT_EQ(paper->ranked[i].index, paper_direct->ranked[i].index);
+  EXPECT_FLOAT_EQ(paper->confidence, paper_direct->confidence);
+  EXPECT_EQ(paper->confidence_model, ConfidenceModel::kPaper);
+  // A calibrated result read with options that name the paper's model stays calibrated.
+  ReadWithCamera(map, tour_camera, &*read);
+  EXPECT_EQ(read->confidence_model, ConfidenceModel::kCalibrated);
 }
 
 // Untrusted feature sets: mismatched counts and non-finite numbers are refused.

@@ -69,7 +69,8 @@ std::vector<int> KidnapOrder(size_t n, int segments, uint32_t seed, bool reverse
 }
 
 SequenceRun RunSequence(const std::vector<QueryOutcome>& outcomes, const Map& map,
-                        const MatchOptions& options, const std::vector<int>& order) {
+                        const MatchOptions& options, const std::vector<int>& order,
+                        std::optional<double> stated_camera) {
   const SequenceFilter filter(map, options.sequence);
   SequenceRun run;
   run.filtered = outcomes;
@@ -88,12 +89,8 @@ SequenceRun RunSequence(const std::vector<QueryOutcome>& outcomes, const Map& ma
       }
       since_jump_correct = since_jump_localised = 0;
     }
-    // A camera in `options` is the robot's as its client states it (sceneloc-eval
-    // --camera-scale; LocaliseRequest.camera_scale).
-    const FrameEvidence evidence{
-        outcomes[q].location_scores, outcomes[q].in_map, outcomes[q].candidates, options,
-        options.camera_log_scale != 0 ? std::optional<double>(options.camera_log_scale)
-                                      : std::nullopt};
+    const FrameEvidence evidence{outcomes[q].location_scores, outcomes[q].in_map,
+                                 outcomes[q].candidates, options, stated_camera};
     Stopwatch watch;
     const SequenceAnswer a = filter.Update(evidence, &state);
     ms.push_back(watch.Milliseconds());

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -60,8 +61,12 @@ struct SequenceRun {
 // either way.
 // REQUIRES: options.Validate().ok(); order holds indices of the outcomes (a query may come
 // more than once, or not at all).
+// `stated_camera`: the robot camera's log scale as its client states it
+// (LocaliseRequest.camera_scale; the outcomes localised with it), which the session reads
+// every frame with instead of what it learns.
 SequenceRun RunSequence(const std::vector<QueryOutcome>& outcomes, const Map& map,
-                        const MatchOptions& options, const std::vector<int>& order);
+                        const MatchOptions& options, const std::vector<int>& order,
+                        std::optional<double> stated_camera = std::nullopt);
 
 // A robot's walk along the route of a query folder in route order: the query it sends
 // at each step.
