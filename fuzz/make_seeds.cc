@@ -92,6 +92,12 @@ void WriteRequestSeeds(const fuzz::FuzzWorld& world, const fs::path& dir) {
   r.mutable_localise()->set_reset_session(false);
   r.mutable_localise()->set_session_state(std::string("SLS1") + std::string(80, '\x01'));
   write(r);
+  // A stated camera: in a session, and on its own.
+  r.mutable_localise()->clear_session_state();
+  r.mutable_localise()->set_camera_scale(1.33f);
+  write(r);
+  r.mutable_localise()->clear_session();
+  write(r);
 }
 
 void WriteJpegSeeds(const fuzz::FuzzWorld& world, const std::string& data_dir,

@@ -345,6 +345,7 @@ double RequestHandler::UpdateSession(const v1::LocaliseRequest& request, const s
   out->set_frames(answer.frames);
   out->set_start(ToWireStart(start));
   out->set_camera_scale(static_cast<float>(std::exp(answer.camera_log_scale)));
+  out->set_measured_camera_scale(static_cast<float>(std::exp(answer.measured_camera_log_scale)));
   return answer.camera_log_scale;
 }
 

@@ -433,6 +433,7 @@ SequenceAnswer SequenceFilter::Update(const FrameEvidence& evidence, SequenceSta
   SequenceAnswer answer = Answer(*state);
   answer.camera_log_scale = camera;
   MeasureCamera(evidence, answer, state);
+  answer.measured_camera_log_scale = CameraLogScale(*state);
   return answer;
 }
 

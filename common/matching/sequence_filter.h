@@ -113,6 +113,9 @@ struct SequenceAnswer {
   // The camera's log scale the session read this frame with: the stated one, else the
   // learnt one (0 until it has learnt one).
   double camera_log_scale = 0;
+  // What the session has learnt of its camera after this frame (CameraLogScale), stated
+  // camera or not.
+  double measured_camera_log_scale = 0;
 };
 
 class SequenceFilter {

@@ -364,6 +364,12 @@ TEST_F(SequenceFilterTest, AStatedCameraIsReadFromTheFirstFrame) {
     if (learn) {
       EXPECT_NEAR(filter.CameraLogScale(state), camera, 0.05);
     }
+    // A stated camera that is wrong shows beside what the session measures.
+    FrameEvidence wrong = CameraFrame(100, camera);
+    wrong.camera_log_scale = 0;
+    const SequenceAnswer a = filter.Update(wrong, &state);
+    EXPECT_EQ(a.camera_log_scale, 0);
+    EXPECT_NEAR(a.measured_camera_log_scale, learn ? camera : 0, 0.05);
   }
 }
 

@@ -70,6 +70,11 @@ def test_camera_scale_is_sent_and_reported(
     stated = client.localise_jpeg(map_name, query_jpeg, camera_scale=1.25)
     assert stated.camera_scale == pytest.approx(1.25)
     assert stated.best is not None
+    # In a session: read with the stated camera; nothing measured yet after one frame.
+    first = client.localise_jpeg(map_name, query_jpeg, session="told", camera_scale=1.25)
+    assert first.session is not None
+    assert first.session.camera_scale == pytest.approx(1.25)
+    assert first.session.measured_camera_scale == pytest.approx(1.0)
 
 
 # The thin-client path: the file `sceneloc extract` wrote, float32 or uint8, read into a

@@ -96,9 +96,13 @@ class SessionAnswer:
     min_confidence: float  # the server's sequence.min_confidence
     frames: int  # frames of the session so far, this one included
     start: int  # a SessionStart
-    # How much larger the robot's camera sees things than the tour's, as the session has
-    # learnt it (1 = the tour's camera, also until learnt; 0 from an older server).
+    # How much larger the robot's camera sees things than the tour's, as the session read
+    # this frame: the request's camera_scale, else what it has learnt (1 = the tour's camera,
+    # also until learnt; 0 from an older server).
     camera_scale: float
+    # What the session has measured of its camera so far: beside a stated camera_scale, it
+    # tells whether that is right (0 from an older server).
+    measured_camera_scale: float
     # The session's filter state after this frame; the client sends it with the session's
     # next request by itself (Client.session_state).
     state: bytes = dataclasses.field(repr=False)
@@ -112,7 +116,7 @@ class SessionAnswer:
         return cls(
             m.name, m.location, m.image_name, m.probability, m.off_map,
             _enum(Decision, m.decision), m.min_confidence, m.frames,
-            _enum(SessionStart, m.start), m.camera_scale, m.state,
+            _enum(SessionStart, m.start), m.camera_scale, m.measured_camera_scale, m.state,
         )
 
 
