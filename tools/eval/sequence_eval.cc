@@ -22,8 +22,8 @@ bool KeepsANeighbour(const std::vector<int>& runs) {
 
 // The single-frame answer of `o` read with `camera` (a session's), as the server answers a
 // session's request.
-MethodOutcome ReadWithCamera(const QueryOutcome& o, const Map& map, const MatchOptions& options,
-                             double camera) {
+MethodOutcome OwnAnswerWithCamera(const QueryOutcome& o, const Map& map,
+                                  const MatchOptions& options, double camera) {
   if (camera == options.camera_log_scale || o.ranked.empty()) return o.ours;
   LocaliseResult r;
   r.ranked = o.ranked;
@@ -94,7 +94,7 @@ SequenceRun RunSequence(const std::vector<QueryOutcome>& outcomes, const Map& ma
     Stopwatch watch;
     const SequenceAnswer a = filter.Update(evidence, &state);
     ms.push_back(watch.Milliseconds());
-    run.in_session[q].ours = ReadWithCamera(outcomes[q], map, options, a.camera_log_scale);
+    run.in_session[q].ours = OwnAnswerWithCamera(outcomes[q], map, options, a.camera_log_scale);
     QueryOutcome& o = run.filtered[q];
     o.ours.predicted = a.location;
     o.ours.confidence = static_cast<float>(a.probability);
