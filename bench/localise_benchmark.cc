@@ -131,8 +131,8 @@ void BM_Confidence(benchmark::State& state) {
     const Input& in = inputs[i++ % inputs.size()];
     const std::vector<float> scores = LocationScores(
         in.candidates, in.holistic_z, static_cast<size_t>(fixture->map.num_images()), options);
-    double c = CalibratedConfidence(fixture->map, scores, in.answer, in.nearest,
-                                    options.confidence_plateau);
+    double c =
+        CalibratedConfidence(fixture->map, scores, in.candidates, in.answer, in.nearest, options);
     benchmark::DoNotOptimize(c);
   }
   state.SetLabel(std::to_string(fixture->map.num_images()) + " locations");

@@ -70,9 +70,10 @@ struct TrainOptions {
   int tolerance = 2;
   // The constants of the calibrated confidence, measured across environments (every
   // development set, validated leaving each out; docs/results.md): the temperature of the
-  // posterior over locations (fitted with MatchOptions::confidence_plateau at its default,
-  // 2; 0.31 before the plateau), and the slope and offset of the in-map probability.
-  double confidence_temperature = 0.28;
+  // posterior over locations (fitted with MatchOptions::confidence_plateau and
+  // confidence_scale_spread at their defaults, 2 and 0.1; 0.28 before the spread, 0.31
+  // before the plateau), and the slope and offset of the in-map probability.
+  double confidence_temperature = 0.2;
   double map_evidence_slope = 1.6;
   double map_evidence_offset = 0.6;
 

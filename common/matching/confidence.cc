@@ -48,13 +48,6 @@ double InMapProbability(const Map& map, double nearest_holistic_distance) {
          (1 + std::exp(-(map.options.map_evidence_slope * x + map.options.map_evidence_offset)));
 }
 
-double CalibratedConfidence(const Map& map, const std::vector<float>& location_scores, int answer,
-                            double nearest_holistic_distance, double plateau) {
-  return LocationPosterior(location_scores, answer, map.options.tolerance,
-                           map.options.confidence_temperature, plateau) *
-         InMapProbability(map, nearest_holistic_distance);
-}
-
 double PaperConfidence(const std::vector<float>& likelihood) {
   if (likelihood.empty()) return 0;
   if (likelihood.size() == 1) return likelihood[0] > 0 ? 1 : 0;

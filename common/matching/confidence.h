@@ -15,6 +15,10 @@
 //     of their evidence are weaker than those between distinct places, and a query whose
 //     evidence rises evenly across a few frames may lie one frame past the tolerance
 //     (docs/results.md "The answer's plateau").
+//     The verified candidates' evidence depends on the robot's camera through the scale cue
+//     (verify_scale_sigma); that posterior is averaged over cameras near the one in use
+//     (MatchOptions::confidence_scale_spread; CameraAveragedPosterior in evidence.h, which
+//     with CalibratedConfidence there puts the two together).
 //   P(the query shows a place of the route): a logistic in how much closer the query's
 //     nearest tour image is (smallest holistic distance) than a frame that shows no place
 //     of the route comes (the map's calibration, measured at training time from the tour).
@@ -52,11 +56,6 @@ double LocationPosterior(const std::vector<float>& location_scores, int answer, 
 // P(in the map) from the query's smallest holistic distance to the tour; 1 when it is
 // unknown (negative: no holistic descriptor) or the map is uncalibrated.
 double InMapProbability(const Map& map, double nearest_holistic_distance);
-
-// The calibrated confidence: LocationPosterior * InMapProbability, with the map's
-// tolerance and constants and the given plateau (MatchOptions::confidence_plateau).
-double CalibratedConfidence(const Map& map, const std::vector<float>& location_scores, int answer,
-                            double nearest_holistic_distance, double plateau);
 
 // The paper's confidence: L1 / (L1 + L2) over the two highest L; 0 when nothing matched,
 // 1 with a single location.

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 
 namespace sceneloc {
@@ -11,6 +12,25 @@ float Median(std::vector<float> values) {
   const auto mid = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
   std::nth_element(values.begin(), mid, values.end());
   return *mid;
+}
+
+// VerifiedScore with the camera's log scale `camera`.
+double VerifiedScoreFor(const CandidateEvidence& c, const MatchOptions& options, double camera) {
+  double verified = c.inliers;
+  if (options.verify_scale_sigma > 0) {
+    const double s = options.verify_scale_sigma;
+    const double m = c.log_scale - camera;
+    verified *= std::exp(-m * m / (2 * s * s));
+  }
+  return verified;
+}
+
+// A candidate's entry of LocationScores with the camera's log scale `camera`.
+double CandidateScore(const CandidateEvidence& c, const MatchOptions& options, double camera) {
+  const double excess =
+      std::max(0.0, VerifiedScoreFor(c, options, camera) - options.verify_chance_inliers);
+  const bool holistic = options.use_holistic && c.holistic >= 0;
+  return (holistic ? c.holistic_z : 0.0) + options.verify_weight * excess;
 }
 
 }  // namespace
@@ -59,13 +79,7 @@ std::vector<CandidateEvidence> SelectCandidates(const std::vector<int>& by_likel
 }
 
 double VerifiedScore(const CandidateEvidence& c, const MatchOptions& options) {
-  double verified = c.inliers;
-  if (options.verify_scale_sigma > 0) {
-    const double s = options.verify_scale_sigma;
-    const double m = c.log_scale - options.camera_log_scale;
-    verified *= std::exp(-m * m / (2 * s * s));
-  }
-  return verified;
+  return VerifiedScoreFor(c, options, options.camera_log_scale);
 }
 
 // Where local features fail (night, blur) the holistic evidence decides; where they work, a
@@ -91,11 +105,88 @@ void ScoreCandidates(const std::vector<CandidateEvidence>& candidates, const Mat
                      std::vector<float>* scores) {
   for (const CandidateEvidence& c : candidates) {
     if (c.location < 0 || static_cast<size_t>(c.location) >= scores->size()) continue;
-    const double excess = std::max(0.0, VerifiedScore(c, options) - options.verify_chance_inliers);
-    const bool holistic = options.use_holistic && c.holistic >= 0;
     (*scores)[c.location] =
-        static_cast<float>((holistic ? c.holistic_z : 0.0) + options.verify_weight * excess);
+        static_cast<float>(CandidateScore(c, options, options.camera_log_scale));
   }
+}
+
+double CameraAveragedPosterior(const std::vector<float>& location_scores,
+                               const std::vector<CandidateEvidence>& candidates, int answer,
+                               int tolerance, double temperature, const MatchOptions& options) {
+  const double plateau = options.confidence_plateau;
+  const double spread = options.confidence_scale_spread;
+  const size_t n = location_scores.size();
+  if (spread <= 0 || options.verify_scale_sigma <= 0 || candidates.empty() || n == 0) {
+    return LocationPosterior(location_scores, answer, tolerance, temperature, plateau);
+  }
+  const auto [low, high] = std::minmax_element(location_scores.begin(), location_scores.end());
+  if (*low == *high) return 0;  // as LocationPosterior: nothing tells locations apart
+  // Where each location's weight is read: within tolerance of the answer (counted), one
+  // frame further (the plateau, not counted), or beyond at the plain temperature.
+  const double flat = plateau * temperature;
+  enum Zone { kNear, kRing, kFar };
+  const auto zone = [&](size_t l) {
+    const int offset = std::abs(static_cast<int>(l) - answer);
+    return offset <= tolerance ? kNear : offset <= tolerance + 1 ? kRing : kFar;
+  };
+  // The verified locations' scores depend on the camera; every other location's do not: their
+  // weights are summed once per zone, relative to their own top.
+  std::vector<const CandidateEvidence*> verified;
+  std::vector<bool> is_verified(n, false);
+  for (const CandidateEvidence& c : candidates) {
+    if (c.location < 0 || static_cast<size_t>(c.location) >= n || is_verified[c.location]) {
+      continue;
+    }
+    is_verified[c.location] = true;
+    verified.push_back(&c);
+  }
+  double other_top = -std::numeric_limits<double>::infinity();
+  for (size_t l = 0; l < n; ++l) {
+    if (!is_verified[l]) other_top = std::max<double>(other_top, location_scores[l]);
+  }
+  double other[3] = {0, 0, 0};  // per zone, sum of exp((s - other_top) / t)
+  for (size_t l = 0; l < n; ++l) {
+    if (is_verified[l]) continue;
+    const Zone z = zone(l);
+    other[z] += std::exp((location_scores[l] - other_top) / (z == kFar ? temperature : flat));
+  }
+  // The cameras: +-2 spreads in steps of half a spread, weighted by a normal.
+  constexpr int kSteps = 4;
+  std::vector<double> score(verified.size());
+  double averaged = 0, weights = 0;
+  for (int k = -kSteps; k <= kSteps; ++k) {
+    const double x = static_cast<double>(k) / (kSteps / 2);
+    const double camera = options.camera_log_scale + x * spread;
+    const double weight = std::exp(-x * x / 2);
+    double top = other_top;
+    for (size_t i = 0; i < verified.size(); ++i) {
+      score[i] = CandidateScore(*verified[i], options, camera);
+      top = std::max(top, score[i]);
+    }
+    double near = 0, total = 0;
+    if (other_top > -std::numeric_limits<double>::infinity()) {
+      near = other[kNear] * std::exp((other_top - top) / flat);
+      total = near + other[kRing] * std::exp((other_top - top) / flat) +
+              other[kFar] * std::exp((other_top - top) / temperature);
+    }
+    for (size_t i = 0; i < verified.size(); ++i) {
+      const Zone z = zone(static_cast<size_t>(verified[i]->location));
+      const double w = std::exp((score[i] - top) / (z == kFar ? temperature : flat));
+      total += w;
+      if (z == kNear) near += w;
+    }
+    averaged += weight * near / total;
+    weights += weight;
+  }
+  return averaged / weights;
+}
+
+double CalibratedConfidence(const Map& map, const std::vector<float>& location_scores,
+                            const std::vector<CandidateEvidence>& candidates, int answer,
+                            double nearest_holistic_distance, const MatchOptions& options) {
+  return CameraAveragedPosterior(location_scores, candidates, answer, map.options.tolerance,
+                                 map.options.confidence_temperature, options) *
+         InMapProbability(map, nearest_holistic_distance);
 }
 
 }  // namespace sceneloc

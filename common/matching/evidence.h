@@ -46,4 +46,21 @@ std::vector<float> LocationScores(const std::vector<CandidateEvidence>& candidat
 void ScoreCandidates(const std::vector<CandidateEvidence>& candidates, const MatchOptions& options,
                      std::vector<float>* scores);
 
+// P(within tolerance | in the map) averaged over the robot's camera (our departure): the
+// answer's LocationPosterior (confidence.h) with the candidates scored for each camera whose
+// log scale lies within +-2 options.confidence_scale_spread of options.camera_log_scale,
+// weighted by a normal of that spread; the other locations' scores do not depend on the
+// camera. The answer stays the one ranked with camera_log_scale. LocationPosterior of
+// `location_scores` itself when the spread or verify_scale_sigma is 0 (no scale cue to doubt)
+// or nothing was verified. O(locations + candidates x 9).
+double CameraAveragedPosterior(const std::vector<float>& location_scores,
+                               const std::vector<CandidateEvidence>& candidates, int answer,
+                               int tolerance, double temperature, const MatchOptions& options);
+
+// The calibrated confidence (confidence.h): CameraAveragedPosterior with the map's tolerance
+// and temperature, times InMapProbability.
+double CalibratedConfidence(const Map& map, const std::vector<float>& location_scores,
+                            const std::vector<CandidateEvidence>& candidates, int answer,
+                            double nearest_holistic_distance, const MatchOptions& options);
+
 }  // namespace sceneloc

@@ -135,8 +135,8 @@ void RankAndAssess(const Map& map, const MatchOptions& options,
   result->confidence = static_cast<float>(
       result->confidence_model == ConfidenceModel::kPaper
           ? paper
-          : CalibratedConfidence(map, result->location_scores, result->ranked[0].index,
-                                 result->nearest_holistic_distance, options.confidence_plateau));
+          : CalibratedConfidence(map, result->location_scores, candidates, result->ranked[0].index,
+                                 result->nearest_holistic_distance, options));
   result->decision =
       result->confidence >= options.min_confidence ? Decision::kLocalised : Decision::kUnknown;
 }

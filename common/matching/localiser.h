@@ -93,6 +93,13 @@ struct MatchOptions {
   // tolerance + 1 frames) at this multiple of the map's temperature (confidence.h; 1 = one
   // temperature everywhere). Measured: docs/results.md "The answer's plateau".
   double confidence_plateau = 2;
+  // The scale cue (verify_scale_sigma) tells a frame from the ones a few metres before and
+  // after it by how large things look to the robot's camera, which is known only so well:
+  // the calibrated confidence averages the answer's posterior over cameras whose log scale
+  // lies within this spread (one standard deviation) of the one in use (camera_log_scale),
+  // so an answer that holds only for exactly that camera is not certain. 0 = the camera in
+  // use alone. Measured: docs/results.md "The confidence over cameras".
+  double confidence_scale_spread = 0.1;
   // Answers with a confidence below this are UNKNOWN (in [0, 1]; 0 = always LOCALISED).
   // Measured: 0.8 accepts 88% of the correct Gardens Point day answers and none of the
   // out-of-map frames of the development sets (docs/results.md).

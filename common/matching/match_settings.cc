@@ -62,6 +62,9 @@ SettingTable MatchSettings(MatchOptions* o) {
       Setting("matching", "confidence_plateau", &o->confidence_plateau)
           .Range(1, 10)
           .Help("the answer's +-(tolerance + 1) frames at this x the temperature; 1 = off"),
+      Setting("matching", "confidence_scale_spread", &o->confidence_scale_spread)
+          .Range(0, 1)
+          .Help("average the confidence over cameras this far (log scale, 1 sd); 0 = off"),
       Setting("matching", "min_confidence", &o->min_confidence)
           .Range(0, 1)
           .Help("answers below are UNKNOWN (measured: docs/results.md)"),
@@ -99,6 +102,10 @@ SettingTable SequenceSettings(SequenceOptions* o) {
           .Range(0, 1)
           .Help("per frame, P(coming back onto it, anywhere)")
           .Flag("sequence-enter"),
+      Setting("sequence", "evidence_temperature", &o->evidence_temperature)
+          .Range(1e-3, 100)
+          .Help("a frame's fused evidence is its log-likelihood at this temperature")
+          .Flag("sequence-evidence-temperature"),
       Setting("sequence", "evidence_weight", &o->evidence_weight)
           .Range(1e-6, 1)
           .Help("exponent on each frame's likelihood (1 = frames independent)")

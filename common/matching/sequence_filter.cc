@@ -75,7 +75,7 @@ int SequenceFilter::MotionBand(const Map& map) {
 SequenceFilter::SequenceFilter(const Map& map, const SequenceOptions& options)
     : num_locations_(map.num_images()),
       tolerance_(map.options.tolerance),
-      temperature_(map.options.confidence_temperature),
+      temperature_(options.evidence_temperature),
       options_(options) {
   const int band = MotionBand(map);
   forward_ = options.max_forward >= 0 ? options.max_forward : 2 * band;

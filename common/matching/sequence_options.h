@@ -23,9 +23,12 @@ struct SequenceOptions {
   // onto it anywhere (off-map -> in-map).
   double leave = 0.02;
   double enter = 0.2;
-  // The exponent on each frame's likelihood (0, 1]: 1 treats frames as independent. The
-  // likelihood is read at the map's confidence temperature T, so what matters is
-  // evidence_weight / T: 0.45 / 0.28 keeps the 0.5 / 0.31 the filter was measured with.
+  // A frame's fused evidence (LocationScores) is read as a log-likelihood at this
+  // temperature: its own setting, not the map's confidence temperature, which is fitted for
+  // single frames. What matters is evidence_weight / evidence_temperature (0.45 / 0.28 keeps
+  // the 0.5 / 0.31 the filter was measured with); before 2026-12-05 the filter read the map's.
+  double evidence_temperature = 0.28;
+  // The exponent on each frame's likelihood (0, 1]: 1 treats frames as independent.
   double evidence_weight = 0.45;
   // A frame's evidence places the robot only to within the tour frames whose views overlap
   // the one it matched: each location's likelihood also counts for the locations within

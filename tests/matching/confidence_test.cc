@@ -9,7 +9,7 @@
 namespace sceneloc {
 namespace {
 
-constexpr double kT = 0.28;       // the default temperature
+constexpr double kT = 0.2;        // the default temperature
 constexpr double kPlateau = 2.0;  // the default plateau (MatchOptions::confidence_plateau)
 
 // A clear winner with its neighbours close behind: nearly all mass within the tolerance.
@@ -56,6 +56,7 @@ TEST(ConfidenceTest, NothingMatchedIsZero) {
 // 6.8 at 40-41): one temperature reads the small steps between neighbours as certainty;
 // the plateau reading leaves room for the truth beyond the tolerance.
 TEST(ConfidenceTest, APlateauPastTheToleranceLowersIt) {
+  constexpr double kT = 0.28;  // the temperature these scores were read at when measured
   std::vector<float> s(100, 0.0f);
   s[37] = 8.77f;
   s[38] = 7.97f;

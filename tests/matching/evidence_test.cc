@@ -115,5 +115,103 @@ TEST(EvidenceTest, LocationScoresCoverEveryLocation) {
   EXPECT_NEAR(local[2], 0.2 * 5, 1e-5);
 }
 
+// A candidate at `location` with holistic z-score `z`, `inliers` inliers and log scale `m`.
+CandidateEvidence Candidate(int location, float z, int inliers, float m) {
+  CandidateEvidence c;
+  c.location = location;
+  c.holistic = 0.1f;
+  c.holistic_z = z;
+  c.inliers = inliers;
+  c.log_scale = m;
+  return c;
+}
+
+// Evidence along a 60-location route: the answer at 20 whose inliers agree with the camera,
+// its neighbours, and a rival 6 frames on whose inliers are 0.25 larger than the camera's.
+struct Route {
+  std::vector<CandidateEvidence> candidates;
+  std::vector<float> holistic_z;
+  MatchOptions options;
+  std::vector<float> Scores() const {
+    return LocationScores(candidates, holistic_z, holistic_z.size(), options);
+  }
+};
+
+Route RivalRoute(int rival_inliers) {
+  Route r;
+  r.holistic_z.assign(60, 0.0f);
+  for (int l = 0; l < 60; ++l) r.holistic_z[l] = 0.05f * static_cast<float>(l % 7);
+  r.candidates = {Candidate(20, 2.0f, 40, 0.0f), Candidate(21, 1.8f, 30, 0.05f),
+                  Candidate(19, 1.5f, 25, -0.05f), Candidate(26, 1.9f, rival_inliers, 0.25f),
+                  Candidate(45, 0.5f, 9, 0.6f)};
+  return r;
+}
+
+// The weighted mean of LocationPosterior over the nine cameras, each scored from scratch:
+// what CameraAveragedPosterior computes without rescoring the other locations.
+double BruteForceAverage(const Route& r, int answer, int tolerance, double t) {
+  double sum = 0, weights = 0;
+  for (int k = -4; k <= 4; ++k) {
+    const double x = k / 2.0;
+    MatchOptions at = r.options;
+    at.camera_log_scale = r.options.camera_log_scale + x * r.options.confidence_scale_spread;
+    const std::vector<float> s = LocationScores(r.candidates, r.holistic_z, 60, at);
+    sum += std::exp(-x * x / 2) * LocationPosterior(s, answer, tolerance, t, at.confidence_plateau);
+    weights += std::exp(-x * x / 2);
+  }
+  return sum / weights;
+}
+
+// Averaging over cameras is the weighted mean of the posterior at each, computed once per
+// location; with no spread, or no scale cue, it is the posterior of the camera in use.
+TEST(EvidenceTest, CameraAveragedPosteriorIsTheMeanOverCameras) {
+  for (const double camera : {0.0, 0.2, -0.3}) {
+    for (const double spread : {0.05, 0.1, 0.3}) {
+      Route r = RivalRoute(60);
+      r.options.camera_log_scale = camera;
+      r.options.confidence_scale_spread = spread;
+      for (const int answer : {20, 26, 45}) {
+        const double fast =
+            CameraAveragedPosterior(r.Scores(), r.candidates, answer, 2, 0.2, r.options);
+        EXPECT_NEAR(fast, BruteForceAverage(r, answer, 2, 0.2), 1e-6)
+            << "camera " << camera << " spread " << spread << " answer " << answer;
+      }
+    }
+  }
+  Route r = RivalRoute(60);
+  const std::vector<float> s = r.Scores();
+  r.options.confidence_scale_spread = 0;
+  EXPECT_EQ(CameraAveragedPosterior(s, r.candidates, 20, 2, 0.2, r.options),
+            LocationPosterior(s, 20, 2, 0.2, r.options.confidence_plateau));
+  r.options.confidence_scale_spread = 0.1;
+  r.options.verify_scale_sigma = 0;
+  EXPECT_EQ(CameraAveragedPosterior(r.Scores(), r.candidates, 20, 2, 0.2, r.options),
+            LocationPosterior(r.Scores(), 20, 2, 0.2, r.options.confidence_plateau));
+  // Nothing tells the locations apart: 0, as LocationPosterior.
+  r.options.verify_scale_sigma = 0.25;
+  EXPECT_EQ(CameraAveragedPosterior(std::vector<float>(60, 1.0f), {}, 20, 2, 0.2, r.options), 0.0);
+}
+
+// An answer that wins only for exactly the camera in use is less certain over cameras; one
+// that wins for any camera nearby is not; the average is centred on the camera in use.
+TEST(EvidenceTest, CameraAveragedPosteriorDoubtsAnswersOfOneCamera) {
+  Route close = RivalRoute(52);  // at camera 0 the answer leads; at +0.1 the rival would
+  const std::vector<float> s = close.Scores();
+  const double alone = LocationPosterior(s, 20, 2, 0.2, close.options.confidence_plateau);
+  const double averaged = CameraAveragedPosterior(s, close.candidates, 20, 2, 0.2, close.options);
+  EXPECT_GT(alone, 0.9);
+  EXPECT_LT(averaged, alone - 0.1);
+  Route clear = RivalRoute(12);  // the rival barely above chance whatever the camera
+  EXPECT_NEAR(CameraAveragedPosterior(clear.Scores(), clear.candidates, 20, 2, 0.2, clear.options),
+              LocationPosterior(clear.Scores(), 20, 2, 0.2, clear.options.confidence_plateau),
+              1e-3);
+  // A camera stated at the rival's scale: the rival is the answer, and as certain as the
+  // first answer was for the tour's camera by the same reasoning.
+  close.options.camera_log_scale = 0.25;
+  const std::vector<float> at_rival = close.Scores();
+  EXPECT_GT(at_rival[26], at_rival[20]);
+  EXPECT_LT(CameraAveragedPosterior(at_rival, close.candidates, 20, 2, 0.2, close.options), 0.5);
+}
+
 }  // namespace
 }  // namespace sceneloc
