@@ -5,8 +5,9 @@
 //             mean of them all) at one point, with
 //             the default work budget (max_matches_per_landmark 32) and without it (0)
 //   confidence  what the calibrated confidence adds to a localisation: the per-location
-//             evidence scale and the posterior (the holistic distances and the verified
-//             candidates it reads are computed for the ranking anyway)
+//             evidence scale and the posterior, for the camera in use alone (/0) and
+//             averaged over cameras (/10, the default spread); the holistic distances and
+//             the verified candidates it reads are computed for the ranking anyway
 //
 //   localise_benchmark [--map FILE --queries DIR] [benchmark flags]
 //   e.g. --map gp.scnl --queries ../shared/data/gardens_point/day_right
@@ -102,8 +103,11 @@ void BM_Localise(benchmark::State& state) {
 
 // The confidence's own cost, per query: LocationScores over every location and the
 // calibrated posterior, from a localisation's candidates and holistic z-scores.
+// Arg: confidence_scale_spread x 100 (0: the camera in use alone; 10: the default average
+// over cameras).
 void BM_Confidence(benchmark::State& state) {
   MatchOptions options;
+  options.confidence_scale_spread = static_cast<double>(state.range(0)) / 100;
   struct Input {
     std::vector<CandidateEvidence> candidates;
     std::vector<float> holistic_z;
@@ -164,7 +168,7 @@ void BM_HostileQuery(benchmark::State& state) {
 
 BENCHMARK(BM_Extract)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_Localise)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
-BENCHMARK(BM_Confidence)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Confidence)->Arg(0)->Arg(10)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_HostileQuery)
     ->Args({8192, 32})
     ->Args({1024, 32})

@@ -49,6 +49,16 @@ nlohmann::json MethodJson(const sl::MethodSummary& m) {
           {"match_ms", sl::PercentilesJson(m.match_ms)}};
 }
 
+// Each verified candidate as [location, holistic_z, inliers, log_scale, holistic]: what its
+// fused score is computed from (common/matching/evidence.h).
+nlohmann::json CandidatesJson(const std::vector<sl::CandidateEvidence>& candidates) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const sl::CandidateEvidence& c : candidates) {
+    out.push_back({c.location, c.holistic_z, c.inliers, c.log_scale, c.holistic});
+  }
+  return out;
+}
+
 nlohmann::json QueriesJson(const sl::SetResult& r) {
   nlohmann::json out = nlohmann::json::array();
   for (size_t q = 0; q < r.outcomes.size(); ++q) {
@@ -63,9 +73,13 @@ nlohmann::json QueriesJson(const sl::SetResult& r) {
          {"baseline", {o.baseline.predicted, o.baseline.confidence}},
          {"baseline+ransac", {o.reranked.predicted, o.reranked.confidence}},
          // What our confidence is made of (common/matching/confidence.h): every
-         // location's fused evidence and P(in the map), so that its constants can
-         // be re-fitted offline (scripts/fit_confidence.py).
-         {"evidence", {{"in_map", o.in_map}, {"scores", o.location_scores}}}});
+         // location's fused evidence, P(in the map) and the verified candidates (whose
+         // scores the average over cameras re-reads), so that its constants can be
+         // re-fitted offline (scripts/fit_confidence.py).
+         {"evidence",
+          {{"in_map", o.in_map},
+           {"scores", o.location_scores},
+           {"candidates", CandidatesJson(o.candidates)}}}});
   }
   return out;
 }

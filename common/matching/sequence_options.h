@@ -26,7 +26,7 @@ struct SequenceOptions {
   // A frame's fused evidence (LocationScores) is read as a log-likelihood at this
   // temperature: its own setting, not the map's confidence temperature, which is fitted for
   // single frames. What matters is evidence_weight / evidence_temperature (0.45 / 0.28 keeps
-  // the 0.5 / 0.31 the filter was measured with); before 2026-12-05 the filter read the map's.
+  // the 0.5 / 0.31 the filter was measured with); until 2026-12-04 the filter read the map's.
   double evidence_temperature = 0.28;
   // The exponent on each frame's likelihood (0, 1]: 1 treats frames as independent.
   double evidence_weight = 0.45;
