@@ -11,7 +11,9 @@
 //   each candidate verified: epipolar inliers weighted by keypoint-scale agreement
 //   (verification.h; our departure, verify_top = holistic_top = 0 turns it off)
 //   candidates ranked by their fused evidence (FuseEvidence)
-//   confidence = L1 / (L1 + L2), or the same ratio of the two best fused scores
+//   confidence: P(the answer is within the map's tolerance), from every location's fused
+//   evidence averaged over cameras near the one in use, times P(in the map)
+//   (confidence.h, evidence.h CalibratedConfidence); or the paper's L1 / (L1 + L2)
 #pragma once
 
 #include <chrono>
@@ -192,9 +194,9 @@ StatusOr<LocaliseResult> Localise(const FeatureSet& features, const Map& map,
 // verified candidates' fused scores, their entries of location_scores, the ranking, the
 // confidence and the decision, as Localise with that camera would have answered (nothing
 // else depends on the camera). Takes min_confidence, top_k (at most the result's),
-// confidence_plateau and the fusion settings from `options`; the confidence model is the
-// result's (the paper's reads L alone and is kept). The server reads a session's frame
-// with the session's camera this way (server/request_handler.cc).
+// confidence_plateau, confidence_scale_spread and the fusion settings from `options`; the
+// confidence model is the result's (the paper's reads L alone and is kept). The server
+// reads a session's frame with the session's camera this way (server/request_handler.cc).
 // REQUIRES: result from Localise on `map` with `options` but for the camera and the
 // settings named above.
 void ReadWithCamera(const Map& map, const MatchOptions& options, LocaliseResult* result);
