@@ -187,9 +187,12 @@ TEST(EvidenceTest, CameraAveragedPosteriorIsTheMeanOverCameras) {
   r.options.verify_scale_sigma = 0;
   EXPECT_EQ(CameraAveragedPosterior(r.Scores(), r.candidates, 20, 2, 0.2, r.options),
             LocationPosterior(r.Scores(), 20, 2, 0.2, r.options.confidence_plateau));
-  // Nothing tells the locations apart: 0, as LocationPosterior.
+  // Nothing tells the locations apart: 0, as LocationPosterior (with candidates, so the
+  // average's own check answers, not the fallback to LocationPosterior).
   r.options.verify_scale_sigma = 0.25;
-  EXPECT_EQ(CameraAveragedPosterior(std::vector<float>(60, 1.0f), {}, 20, 2, 0.2, r.options), 0.0);
+  EXPECT_EQ(
+      CameraAveragedPosterior(std::vector<float>(60, 1.0f), r.candidates, 20, 2, 0.2, r.options),
+      0.0);
 }
 
 // An answer that wins only for exactly the camera in use is less certain over cameras; one
@@ -205,8 +208,8 @@ TEST(EvidenceTest, CameraAveragedPosteriorDoubtsAnswersOfOneCamera) {
   EXPECT_NEAR(CameraAveragedPosterior(clear.Scores(), clear.candidates, 20, 2, 0.2, clear.options),
               LocationPosterior(clear.Scores(), 20, 2, 0.2, clear.options.confidence_plateau),
               1e-3);
-  // A camera stated at the rival's scale: the rival is the answer, and as certain as the
-  // first answer was for the tour's camera by the same reasoning.
+  // A camera stated at the rival's scale: the rival now leads, and the average, centred on
+  // that camera, gives the old answer little.
   close.options.camera_log_scale = 0.25;
   const std::vector<float> at_rival = close.Scores();
   EXPECT_GT(at_rival[26], at_rival[20]);
