@@ -74,10 +74,11 @@ void PrintAnswer(const std::string& query, const v1::LocaliseReply& r) {
   if (r.has_session()) {
     const v1::SessionAnswer& s = r.session();
     std::printf(
-        "%s\tsession %s frame %u\t%d\t%s\t%s\tprobability %.3f\toff-map %.3f\tcamera x%.2f%s\n",
+        "%s\tsession %s frame %u\t%d\t%s\t%s\tprobability %.3f\toff-map %.3f\ttrack support "
+        "%.2f\tcamera x%.2f%s\n",
         query.c_str(), s.name().c_str(), s.frames(), s.location(), s.image_name().c_str(),
         s.decision() == v1::LOCALISED ? "LOCALISED" : "UNKNOWN", s.probability(), s.off_map(),
-        s.camera_scale(), StartNote(s.start()));
+        s.track_support(), s.camera_scale(), StartNote(s.start()));
   }
 }
 

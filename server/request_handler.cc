@@ -340,6 +340,8 @@ double RequestHandler::UpdateSession(const v1::LocaliseRequest& request, const s
   out->set_image_name(map.map.image_names[answer.location]);
   out->set_probability(static_cast<float>(answer.probability));
   out->set_off_map(static_cast<float>(answer.off_map));
+  out->set_belief(static_cast<float>(answer.belief));
+  out->set_track_support(static_cast<float>(answer.support));
   out->set_decision(answer.decision == Decision::kLocalised ? v1::LOCALISED : v1::UNKNOWN);
   out->set_min_confidence(static_cast<float>(options_.matching.sequence.min_confidence));
   out->set_frames(answer.frames);

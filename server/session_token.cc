@@ -9,13 +9,15 @@
 namespace sceneloc {
 namespace {
 
-constexpr char kMagic[4] = {'S', 'L', 'S', '5'};
+constexpr char kMagic[4] = {'S', 'L', 'S', '6'};
+// "SLS5": the same without the track's support; continues with a fresh support.
+constexpr char kMagicNoSupport[4] = {'S', 'L', 'S', '5'};
 // The earlier formats ("SLS1": N + 1 values; "SLS2": the direction of travel, 2N + 1;
 // "SLS3": every location's speeds, S N + 1; "SLS4": no camera scale): well-formed ones
 // start the session again, as a token of another map does.
 constexpr char kOldMagics[4][4] = {
     {'S', 'L', 'S', '1'}, {'S', 'L', 'S', '2'}, {'S', 'L', 'S', '3'}, {'S', 'L', 'S', '4'}};
-constexpr size_t kHeaderBytes = 4 + 4 + 4 + 4 + 4 + 4 + 4 + 8;
+constexpr size_t kHeaderBytes = 4 + 4 + 4 + 4 + 4 + 4 + 4 + 8 + 4;
 
 bool IsOldFormat(const std::string& bytes) {
   if (bytes.size() < 4) return false;
@@ -66,6 +68,7 @@ std::string SerializeSessionToken(const SequenceState& state, const TokenOwner& 
   Put<uint32_t>(&out, state.frames);
   Put<uint32_t>(&out, static_cast<uint32_t>(state.camera_counts.size()));
   Put<uint64_t>(&out, SessionHash(owner));
+  Put<float>(&out, state.support);
   for (const float p : state.location) Put<float>(&out, p);
   for (const uint32_t l : state.tracked) Put<uint32_t>(&out, l);
   for (const float p : state.speeds) Put<float>(&out, p);
@@ -81,8 +84,10 @@ StatusOr<TokenFit> ParseSessionToken(const std::string& bytes, const TokenOwner&
                            "): send the `state` of the session's last reply, or none");
   };
   const bool old_format = IsOldFormat(bytes);
-  if (bytes.size() < kHeaderBytes + 4 ||
-      (std::memcmp(bytes.data(), kMagic, 4) != 0 && !old_format)) {
+  const bool no_support = bytes.size() >= 4 && std::memcmp(bytes.data(), kMagicNoSupport, 4) == 0;
+  const size_t header = no_support ? kHeaderBytes - 4 : kHeaderBytes;
+  if (bytes.size() < header + 4 ||
+      (std::memcmp(bytes.data(), kMagic, 4) != 0 && !old_format && !no_support)) {
     return corrupt("no session state header");
   }
   const size_t body = bytes.size() - 4;
@@ -97,6 +102,7 @@ StatusOr<TokenFit> ParseSessionToken(const std::string& bytes, const TokenOwner&
   const uint32_t frames = Get<uint32_t>(bytes, &at);
   const uint32_t camera_bins = Get<uint32_t>(bytes, &at);
   const uint64_t session = Get<uint64_t>(bytes, &at);
+  const float support = no_support ? SequenceState::kFreshSupport : Get<float>(bytes, &at);
   if (camera_bins != 0 && camera_bins != SequenceOptions::kCameraBins) {
     return corrupt("its camera scale has " + std::to_string(camera_bins) + " bins, not " +
                    std::to_string(SequenceOptions::kCameraBins));
@@ -104,7 +110,7 @@ StatusOr<TokenFit> ParseSessionToken(const std::string& bytes, const TokenOwner&
   // Every count is bounded by the token's own size (under 2^32 values) before they are
   // multiplied, in 64 bits.
   const size_t camera_bytes = 2 * size_t{camera_bins};
-  const size_t state_bytes = body - kHeaderBytes;
+  const size_t state_bytes = body - header;
   const size_t values = state_bytes >= camera_bytes ? (state_bytes - camera_bytes) / 4 : 0;
   if (state_bytes < camera_bytes || (state_bytes - camera_bytes) % 4 != 0 || locations == 0 ||
       speeds == 0 || locations > values || speeds > values || tracked > locations ||
@@ -119,8 +125,10 @@ StatusOr<TokenFit> ParseSessionToken(const std::string& bytes, const TokenOwner&
       static_cast<int>(speeds) != owner.num_speeds) {
     return TokenFit::kOtherMap;
   }
+  if (!(support >= 0 && support <= 1)) return corrupt("its track's support is not in [0, 1]");
   SequenceState parsed;
   parsed.frames = frames;
+  parsed.support = support;
   // Non-negative finite values with a positive sum, scaled to sum to 1.
   const auto read_distribution = [&](float* out, size_t count) -> Status {
     double total = 0;

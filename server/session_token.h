@@ -4,19 +4,20 @@
 // eviction, expiry). The client sends back the state of its last reply; sceneloc::Client
 // does it by itself.
 //
-// Layout (little-endian): "SLS5", uint32 map checksum (the map file's CRC-32: the same in
+// Layout (little-endian): "SLS6", uint32 map checksum (the map file's CRC-32: the same in
 // every process serving that file), uint32 locations N, uint32 speeds S (the filter's
 // num_speeds()), uint32 tracked locations K, uint32 frames, uint32 camera bins B (0 before
 // the session has measured its camera's scale, else SequenceOptions::kCameraBins), uint64
-// session hash (FNV-1a of the client's key name and the session name), then the
-// SequenceState: N + 1 float32 location, K uint32 tracked, (K + 1) S float32 speeds, B
-// uint16 camera counts; uint32 CRC-32 of everything before it. 40 + 4 (N + 1 + K + (K + 1) S)
-// + 2 B bytes: 5,648 at 200 locations, 17 speeds, 64 tracked and the camera measured;
-// 44,848 at 10,000. A well-formed token of an earlier format ("SLS1": N + 1 values; "SLS2":
-// 2N + 1, the direction of travel; "SLS3": S N + 1, every location's speeds; "SLS4": no
-// camera) or of other filter settings (another S) starts the session again, as another
-// map's does; one with another number of tracked locations continues (the next frame
-// compacts it to this server's).
+// session hash (FNV-1a of the client's key name and the session name), float32 the track's
+// support, then the SequenceState: N + 1 float32 location, K uint32 tracked, (K + 1) S
+// float32 speeds, B uint16 camera counts; uint32 CRC-32 of everything before it.
+// 44 + 4 (N + 1 + K + (K + 1) S) + 2 B bytes: 5,652 at 200 locations, 17 speeds, 64 tracked
+// and the camera measured; 44,852 at 10,000. A "SLS5" token (the same without the support,
+// 2026-12-04) continues with a fresh support. A well-formed token of an earlier format
+// ("SLS1": N + 1 values; "SLS2": 2N + 1, the direction of travel; "SLS3": S N + 1, every
+// location's speeds; "SLS4": no camera) or of other filter settings (another S) starts the
+// session again, as another map's does; one with another number of tracked locations
+// continues (the next frame compacts it to this server's).
 //
 // The bytes come from the client: untrusted. ParseSessionToken checks size, checksum,
 // finite non-negative belief with a positive sum, and which session it belongs to.

@@ -118,6 +118,14 @@ SettingTable SequenceSettings(SequenceOptions* o) {
           .Range(0, 0.99)
           .Help("share of a frame's evidence treated as possibly uninformative (0 = off)")
           .Flag("sequence-evidence-floor"),
+      Setting("sequence", "support_weight", &o->support_weight)
+          .Range(0, 10)
+          .Help("exponent on a frame's support of the session's track (0 = off: belief alone)")
+          .Flag("sequence-support-weight"),
+      Setting("sequence", "support_switch", &o->support_switch)
+          .Range(0, 0.5)
+          .Help("per frame, P(the track's support changes)")
+          .Flag("sequence-support-switch"),
       Setting("sequence", "min_confidence", &o->min_confidence)
           .Range(0, 1)
           .Help("session answers below this are UNKNOWN")

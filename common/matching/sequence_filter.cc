@@ -11,6 +11,12 @@
 namespace sceneloc {
 namespace {
 
+// The least likelihood ratio a frame gives the session's track in SequenceFilter::
+// CheckTrack: a frame that places the robot nowhere near the track (a confident look-alike)
+// counts as at worst a fifth as likely under "supported" as under "says nothing", so one
+// such frame lowers the support by a bounded factor whatever the map's size.
+constexpr double kLeastRatio = 0.2;
+
 // The stationary share of off-map of the enter/leave chain: where a fresh session starts.
 double StationaryOffMap(const SequenceOptions& o) {
   return o.leave + o.enter > 0 ? o.leave / (o.leave + o.enter) : 0;
@@ -239,6 +245,7 @@ void SequenceFilter::Observe(const std::vector<float>& s, double in_map,
 bool SequenceFilter::Fits(const SequenceState& state) const {
   const size_t n = static_cast<size_t>(num_locations_), tracked = state.tracked.size();
   if (state.location.size() != n + 1 || tracked > n ||
+      !(state.support >= 0 && state.support <= 1) ||
       (!state.camera_counts.empty() &&
        state.camera_counts.size() != static_cast<size_t>(SequenceOptions::kCameraBins)) ||
       state.speeds.size() != (tracked + 1) * static_cast<size_t>(num_speeds())) {
@@ -326,11 +333,44 @@ SequenceAnswer SequenceFilter::Answer(const SequenceState& state) const {
   a.location = static_cast<int>(std::max_element(at.begin(), at.begin() + n) - at.begin());
   const int low = std::max(0, a.location - tolerance_);
   const int high = std::min(n - 1, a.location + tolerance_);
-  a.probability = std::accumulate(at.begin() + low, at.begin() + high + 1, 0.0);
+  a.belief = std::accumulate(at.begin() + low, at.begin() + high + 1, 0.0);
+  a.probability = a.belief;
+  a.support = state.support;
   a.off_map = at[n];
   a.frames = state.frames;
-  a.decision = a.probability >= options_.min_confidence ? Decision::kLocalised : Decision::kUnknown;
   return a;
+}
+
+void SequenceFilter::CheckTrack(const std::vector<float>& scores, double in_map,
+                                SequenceAnswer* answer, SequenceState* state) const {
+  const int n = num_locations_, a = answer->location;
+  const bool has_scores = scores.size() == static_cast<size_t>(n) &&
+                          *std::max_element(scores.begin(), scores.end()) !=
+                              *std::min_element(scores.begin(), scores.end());
+  double own = 0;  // the frame's own P(within the tolerance of the answer), at most the belief
+  if (options_.support_weight > 0) {
+    const double h = options_.support_switch;
+    const double prior = state->support * (1 - h) + (1 - state->support) * h;
+    double ratio = 1;  // a frame without evidence says nothing about the track
+    if (has_scores) {
+      // The frame's posterior within a frame's travel of the answer, over the share of the
+      // locations there: a likelihood ratio against a frame that says nothing.
+      const int reach = std::max(forward_, backward_);
+      const int inside = std::min(n - 1, a + reach) - std::max(0, a - reach) + 1;
+      const double near = LocationPosterior(scores, a, reach, temperature_, 1);
+      ratio = std::pow(std::max(near * n / inside, kLeastRatio), options_.support_weight);
+      // Never above the belief: a frame agreeing with an answer the belief doubts (a
+      // look-alike the session has drifted onto) must not make it surer.
+      own = std::min(answer->belief, LocationPosterior(scores, a, tolerance_, temperature_, 1) *
+                                         (in_map < 0 ? 1.0 : in_map));
+    }
+    const double supported = prior * ratio;
+    state->support = static_cast<float>(supported / (supported + 1 - prior));
+    answer->support = state->support;
+    answer->probability = state->support * answer->belief + (1 - state->support) * own;
+  }
+  answer->decision =
+      answer->probability >= options_.min_confidence ? Decision::kLocalised : Decision::kUnknown;
 }
 
 double SequenceFilter::CameraLogScale(const SequenceState& state) const {
@@ -412,6 +452,7 @@ SequenceAnswer SequenceFilter::Update(const FrameEvidence& evidence, SequenceSta
     belief.back() = static_cast<float>(off);
     state->frames = 0;
     state->camera_counts.clear();
+    state->support = SequenceState::kFreshSupport;
   } else {
     Expand(*state, &belief);
     Predict(&belief);
@@ -431,6 +472,7 @@ SequenceAnswer SequenceFilter::Update(const FrameEvidence& evidence, SequenceSta
   Compact(belief, state);
   if (state->frames < UINT32_MAX) ++state->frames;  // a carried count can be anything
   SequenceAnswer answer = Answer(*state);
+  CheckTrack(*scores, evidence.in_map, &answer, state);
   answer.camera_log_scale = camera;
   MeasureCamera(evidence, answer, state);
   answer.measured_camera_log_scale = CameraLogScale(*state);

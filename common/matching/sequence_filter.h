@@ -25,7 +25,11 @@
 //             evidence_weight < 1 tempers it: consecutive frames are not independent (the
 //             same look-alike fools both). With evidence_floor f > 0 the likelihood ratio
 //             is (1 - f) L + f P(in map): a frame may be uninformative (off by default).
-//   answer:   the location with the most belief over every speed.
+//   answer:   the location with the most belief over every speed; its probability is the
+//             belief within the tolerance as far as the frames support the track the belief
+//             follows (SequenceOptions::support_weight: a two-state chain, "supported" or
+//             not, weighed each frame by its own posterior near the answer), else the
+//             frame's own single-frame probability there.
 //   camera:   a LOCALISED answer measures how much larger the robot's camera sees things
 //             than the tour's (SequenceOptions::learn_camera_scale); once learnt, the
 //             session reads its frames' verified candidates with it (MeasureCamera,
@@ -91,6 +95,10 @@ struct SequenceState {
   // row per tracked location in that order, then the row the others share.
   std::vector<float> speeds;
   uint32_t frames = 0;  // frames filtered so far
+  // P(the frames support the session's track) (SequenceOptions::support_weight), in [0, 1];
+  // kFreshSupport before the first frame.
+  float support = kFreshSupport;
+  static constexpr float kFreshSupport = 0.5f;
   // The robot camera's log scale against the tour's as measured on the session's LOCALISED
   // answers: how many measurements fell in each of SequenceOptions::kCameraBins bins
   // (empty before the first).
@@ -104,11 +112,15 @@ struct SequenceState {
 };
 
 struct SequenceAnswer {
-  int location = -1;       // the most probable tour location
-  double probability = 0;  // belief within the map's tolerance of it (off-map included in
-                           // the total)
-  double off_map = 0;      // belief in "off the map"
-  uint32_t frames = 0;     // frames the session has seen, this one included
+  int location = -1;  // the most probable tour location
+  // P(within the map's tolerance of it): the belief there (off-map included in the total),
+  // as far as the frames support the track, else the frame's own single-frame probability
+  // (SequenceOptions::support_weight).
+  double probability = 0;
+  double belief = 0;    // the belief within the tolerance alone
+  double support = 0;   // SequenceState::support after this frame
+  double off_map = 0;   // belief in "off the map"
+  uint32_t frames = 0;  // frames the session has seen, this one included
   Decision decision = Decision::kUnknown;
   // The camera's log scale the session read this frame with: the stated one, else the
   // learnt one (0 until it has learnt one).
@@ -135,10 +147,10 @@ class SequenceFilter {
   // always 0 when learn_camera_scale is off.
   double CameraLogScale(const SequenceState& state) const;
 
-  // Whether `state` is a state of this filter: its sizes, and tracked locations ascending
-  // on the map. Values are not checked. A state that tracks more or fewer locations than
-  // this filter keeps fits (a server whose tracked_locations differs, in a fleet being
-  // reconfigured): the next Update compacts it to num_tracked().
+  // Whether `state` is a state of this filter: its sizes, tracked locations ascending on
+  // the map, and a support in [0, 1]. Belief values are not checked. A state that tracks
+  // more or fewer locations than this filter keeps fits (a server whose tracked_locations
+  // differs, in a fleet being reconfigured): the next Update compacts it to num_tracked().
   bool Fits(const SequenceState& state) const;
 
   // How many tour frames apart the map's views still overlap: the median number of tour
@@ -175,6 +187,10 @@ class SequenceFilter {
   // Weighs `belief` by a frame's evidence: every location's fused score, and P(in the map)
   // (-1 unknown).
   void Observe(const std::vector<float>& scores, double in_map, std::vector<float>* belief) const;
+  // Weighs the session's support (SequenceState::support) by how far the frame's `scores`
+  // place the robot within a frame's travel of `answer`, and sets answer->probability.
+  void CheckTrack(const std::vector<float>& scores, double in_map, SequenceAnswer* answer,
+                  SequenceState* state) const;
   // Adds the camera's scale measured on this frame's answer, if it gives one, to `state`.
   void MeasureCamera(const FrameEvidence& evidence, const SequenceAnswer& answer,
                      SequenceState* state) const;

@@ -45,7 +45,23 @@ struct SequenceOptions {
   // evidence"). Off by default until more hard sequences decide; an operator whose robots
   // meet mostly wrong single frames (night, the other side of the route) should set it.
   double evidence_floor = 0;
-  // A filtered answer whose mass within the tolerance is below this is UNKNOWN.
+  // How far the session believes its own track. The filter's belief is right only while
+  // its model is: where frames stop supporting the track it holds (a look-alike stretch
+  // locked on, at night from the other side of the route), its motion model keeps the
+  // belief where it was and the mass stays high on a wrong answer. So a session also keeps
+  // P(the frames support its track), `support`, a two-state chain over "supported" and
+  // "not": each frame it switches with probability support_switch, and the frame weighs
+  // "supported" by its likelihood ratio (N x its single-frame posterior within a frame's
+  // travel of the answer, over the locations there)^support_weight, "not" by 1 (the frame
+  // says nothing about the track; the ratio is at least 1/5). The answer's probability is
+  // then support x the belief within the tolerance + (1 - support) x the frame's own
+  // single-frame probability there, that one at most the belief: the support only ever
+  // lowers what the belief says.
+  // support_weight 0 = off: the belief alone, as before 2026-12-04. Measured:
+  // docs/results.md "Sessions: a confidence that checks the track".
+  double support_weight = 0.25;
+  double support_switch = 0.05;
+  // A filtered answer whose probability (above) is below this is UNKNOWN.
   double min_confidence = 0.8;
   // Between frames a session keeps every location's belief but the distribution over
   // speeds only of this many locations, the most probable; the others share one. It bounds

@@ -86,6 +86,10 @@ TEST(MatchSettingsTest, RangesAreTheDocumentedOnes) {
        [](MatchOptions* o, double v) { o->sequence.evidence_spread = v; }, 0, 1, -0.01, 1.01},
       {"sequence.evidence_floor", [](MatchOptions* o, double v) { o->sequence.evidence_floor = v; },
        0, 0.99, -0.01, 1},
+      {"sequence.support_weight", [](MatchOptions* o, double v) { o->sequence.support_weight = v; },
+       0, 10, -0.01, 10.5},
+      {"sequence.support_switch", [](MatchOptions* o, double v) { o->sequence.support_switch = v; },
+       0, 0.5, -0.01, 0.51},
       {"sequence.evidence_weight",
        [](MatchOptions* o, double v) { o->sequence.evidence_weight = v; }, 1e-6, 1, 0, 1.5},
   };

@@ -92,7 +92,9 @@ TEST_F(SequenceFilterTest, SteadyWalkIgnoresLookAlikes) {
     EXPECT_EQ(a.frames, static_cast<uint32_t>(t + 1));
     if (t < 3) continue;
     EXPECT_LE(std::abs(a.location - where), 2) << "frame " << t;
-    EXPECT_EQ(a.decision, Decision::kLocalised) << "frame " << t;
+    // LOCALISED through the look-alikes once the frames have shown the track a while (a
+    // session's support of its track starts at even odds).
+    if (t >= 6) EXPECT_EQ(a.decision, Decision::kLocalised) << "frame " << t;
   }
 }
 
@@ -524,6 +526,70 @@ TEST_F(SequenceFilterTest, EvidenceFloorBoundsOneMisleadingFrame) {
   }
   EXPECT_GT(kept[1], kept[0]);
   EXPECT_GT(kept[1], 0.5);
+}
+
+// A walk whose frames support the track keeps its probability: the support rises to its
+// ceiling (the switch rate caps it) and the answer stays LOCALISED, within a few hundredths
+// of the belief alone.
+TEST_F(SequenceFilterTest, ASupportedTrackKeepsItsProbability) {
+  const SequenceFilter filter = Filter();
+  SequenceState state;
+  SequenceAnswer a;
+  for (int t = 0; t < 30; ++t) a = filter.Update(Frame(20 + t), &state);
+  EXPECT_GT(a.support, 0.95);
+  EXPECT_EQ(state.support, static_cast<float>(a.support));
+  EXPECT_EQ(a.decision, Decision::kLocalised);
+  EXPECT_GT(a.probability, a.belief - 0.05);
+  EXPECT_LE(a.probability, 1.0);
+}
+
+// Frames that stop supporting the track (each matches somewhere else, never the same place
+// twice: a look-alike stretch, a night from the other side) leave the filter's belief on the
+// track it was following, sure of it; the session's probability follows the support down
+// and the answer becomes UNKNOWN. Frames that support the track again bring it back.
+TEST_F(SequenceFilterTest, ATrackTheFramesStopSupportingIsDoubted) {
+  std::vector<SequenceAnswer> lost;
+  for (const double weight : {0.0, 0.25}) {
+    options_.support_weight = weight;
+    const SequenceFilter filter = Filter();
+    SequenceState state;
+    rng_.seed(11);
+    for (int t = 0; t < 20; ++t) filter.Update(Frame(20 + t), &state);
+    // The track goes on at a frame a location, but only every third frame shows it; the
+    // others each match a place of their own.
+    SequenceAnswer a;
+    for (int t = 20; t < 32; ++t) {
+      a = filter.Update(t % 3 == 0 ? Frame(20 + t) : Frame(80 + 5 * (t - 20), 2), &state);
+    }
+    lost.push_back(a);
+    if (weight == 0) continue;
+    EXPECT_LT(a.support, 0.75);
+    EXPECT_EQ(a.decision, Decision::kUnknown);
+    int back = -1;
+    for (int t = 32; t < 52 && back < 0; ++t) {
+      a = filter.Update(Frame(20 + t), &state);
+      if (a.decision == Decision::kLocalised && std::abs(a.location - (20 + t)) <= 2) back = t - 32;
+    }
+    EXPECT_GE(back, 0) << "never LOCALISED again";
+    EXPECT_LE(back, 8);
+  }
+  // Off, the probability is the belief alone, and the belief holds the track, sure of it.
+  EXPECT_EQ(lost[0].probability, lost[0].belief);
+  EXPECT_GE(lost[0].belief, 0.8);
+  EXPECT_EQ(lost[1].belief, lost[0].belief);  // the support changes no belief
+  EXPECT_LT(lost[1].probability, lost[0].probability - 0.2);
+}
+
+// A frame without evidence says nothing about the track: the support only relaxes towards
+// even odds at the switch rate.
+TEST_F(SequenceFilterTest, FramesWithoutEvidenceLeaveTheSupportToTheSwitch) {
+  const SequenceFilter filter = Filter();
+  SequenceState state;
+  for (int t = 0; t < 20; ++t) filter.Update(Frame(20 + t), &state);
+  const double before = state.support, h = options_.support_switch;
+  const SequenceAnswer a = filter.Update(FrameEvidence{}, &state);
+  EXPECT_NEAR(a.support, before * (1 - h) + (1 - before) * h, 1e-6);
+  EXPECT_EQ(a.probability, a.support * a.belief);  // and the frame's own says nothing
 }
 
 // A frame count carried in from a client stops at its largest value instead of wrapping.

@@ -83,7 +83,7 @@ TEST(ServerOptionsTest, FlagsOverrideWithTheSameChecks) {
                                       [](const ServerFlag& f) { return f.section == "matching"; });
   const auto sequence = std::count_if(flags.begin(), flags.end(),
                                       [](const ServerFlag& f) { return f.section == "sequence"; });
-  EXPECT_EQ(sequence, 15);
+  EXPECT_EQ(sequence, 17);
   EXPECT_EQ(flags.size() - static_cast<size_t>(matching + sequence), 30u);
   ASSERT_TRUE(ApplyServerFlag(Flag("sequence-evidence-weight"), "0.7", &options).ok());
   EXPECT_EQ(options.matching.sequence.evidence_weight, 0.7);

@@ -93,7 +93,13 @@ TEST_F(SessionTest, SessionFollowsTheWalk) {
     EXPECT_EQ(s.start(), i == 0 ? v1::NEW : v1::CONTINUED);
     EXPECT_FLOAT_EQ(s.min_confidence(), 0.8f);
     EXPECT_GE(s.probability(), 0.0f);
-    EXPECT_LE(s.probability() + s.off_map(), 1.0f + 1e-5f);
+    EXPECT_LE(s.probability(), s.belief());  // the track's support only lowers the belief
+    EXPECT_LE(s.belief() + s.off_map(), 1.0f + 1e-5f);
+    EXPECT_GE(s.track_support(), 0.0f);
+    EXPECT_LE(s.track_support(), 1.0f);
+    // The frames agree with the track: its support is above even odds (not far above: on a
+    // tour this short, a frame within a frame's travel of the answer says little).
+    if (i >= 1) EXPECT_GT(s.track_support(), 0.5f) << "frame " << i;
     if (i >= 2) {
       EXPECT_LE(std::abs(s.location() - i), 2) << "frame " << i;
       EXPECT_EQ(s.decision(), v1::LOCALISED) << "frame " << i;
@@ -326,7 +332,7 @@ TEST_F(SessionTest, AnotherServerContinuesFromTheCarriedState) {
     state = reply->session().state();
   }
   // The header, the filter's values and the camera's 64 bins (measured by now).
-  EXPECT_EQ(state.size(), 40u + 4 * TestStateSize() + 2 * SequenceOptions::kCameraBins);
+  EXPECT_EQ(state.size(), 44u + 4 * TestStateSize() + 2 * SequenceOptions::kCameraBins);
   auto reply = (*other)->Call(CarriedFrame(6, "walk-2", state));
   ASSERT_TRUE(reply.ok());
   ASSERT_EQ(reply->status(), v1::OK) << reply->error();
@@ -335,6 +341,7 @@ TEST_F(SessionTest, AnotherServerContinuesFromTheCarriedState) {
   EXPECT_EQ(s.frames(), 7u);
   EXPECT_EQ(s.location(), one_server[6].location());
   EXPECT_NEAR(s.probability(), one_server[6].probability(), 1e-4);
+  EXPECT_NEAR(s.track_support(), one_server[6].track_support(), 1e-6);  // carried in the state
   EXPECT_FLOAT_EQ(s.camera_scale(), one_server[6].camera_scale());
 }
 

@@ -24,6 +24,7 @@ SequenceState State() {
   s.tracked = {1, 2};
   s.speeds = {0.5f, 0.5f, 0.25f, 0.75f, 1.0f, 0.0f};
   s.frames = 17;
+  s.support = 0.3f;
   return s;
 }
 
@@ -36,12 +37,12 @@ SequenceState StateWithCamera() {
   return s;
 }
 
-// A state survives the round trip exactly; its size is 40 + 4 (N + 1 + K + (K + 1) S) + 2 B
+// A state survives the round trip exactly; its size is 44 + 4 (N + 1 + K + (K + 1) S) + 2 B
 // bytes, B the camera's bins (0 until the session measures its camera).
 TEST(SessionTokenTest, RoundTrip) {
   for (const SequenceState& state : {State(), StateWithCamera()}) {
     const std::string bytes = SerializeSessionToken(state, Owner());
-    EXPECT_EQ(bytes.size(), 40u + 4 * (5 + 2 + 6) + 2 * state.camera_counts.size());
+    EXPECT_EQ(bytes.size(), 44u + 4 * (5 + 2 + 6) + 2 * state.camera_counts.size());
     SequenceState parsed;
     auto fit = ParseSessionToken(bytes, Owner(), &parsed);
     ASSERT_TRUE(fit.ok()) << fit.status().ToString();
@@ -51,7 +52,30 @@ TEST(SessionTokenTest, RoundTrip) {
     EXPECT_EQ(parsed.tracked, state.tracked);
     EXPECT_EQ(parsed.speeds, state.speeds);
     EXPECT_EQ(parsed.camera_counts, state.camera_counts);
+    EXPECT_EQ(parsed.support, 0.3f);
   }
+}
+
+// A "SLS5" token (before the track's support, 2026-12-04: the same bytes without it) that a
+// client kept across the server's upgrade continues, with a fresh support; damaged, it is
+// refused.
+TEST(SessionTokenTest, TokensWithoutSupportContinue) {
+  std::string bytes = SerializeSessionToken(StateWithCamera(), Owner());
+  bytes[3] = '5';
+  bytes.erase(36, sizeof(float));  // the support, after the session hash
+  bytes.resize(bytes.size() - sizeof(uint32_t));
+  const uint32_t crc = Crc32(bytes.data(), bytes.size());
+  bytes.append(reinterpret_cast<const char*>(&crc), sizeof(crc));
+  SequenceState parsed;
+  const auto fit = ParseSessionToken(bytes, Owner(), &parsed);
+  ASSERT_TRUE(fit.ok()) << fit.status().ToString();
+  EXPECT_EQ(*fit, TokenFit::kFits);
+  EXPECT_EQ(parsed.support, SequenceState::kFreshSupport);
+  EXPECT_EQ(parsed.location, StateWithCamera().location);
+  EXPECT_EQ(parsed.camera_counts, StateWithCamera().camera_counts);
+  bytes[50] = static_cast<char>(bytes[50] ^ 0x20);
+  EXPECT_EQ(ParseSessionToken(bytes, Owner(), &parsed).status().code(),
+            StatusCode::kInvalidArgument);
 }
 
 // Tokens of the earlier formats ("SLS1": N + 1 values; "SLS2": the direction of travel,
@@ -122,6 +146,11 @@ TEST(SessionTokenTest, ForgedValuesAreRefused) {
     return std::string(fit.status().message());
   };
   SequenceState s = State();
+  s.support = 1.5f;
+  EXPECT_NE(refusal(s).find("support"), std::string::npos);
+  s.support = std::nanf("");
+  EXPECT_NE(refusal(s).find("support"), std::string::npos);
+  s = State();
   s.location[2] = std::nanf("");
   EXPECT_NE(refusal(s).find("not finite"), std::string::npos);
   s = State();

@@ -21,14 +21,14 @@ Connect = Callable[[ServerProcess], sceneloc.Client]
 
 
 def check_session_state(state: bytes, num_locations: int) -> None:
-    """A session's state as server/session_token.h lays it out: "SLS5", the map's checksum,
+    """A session's state as server/session_token.h lays it out: "SLS6", the map's checksum,
     N locations, S speeds, K tracked locations, frames, B camera bins (0 or 64), ...,
-    40 + 4 (N + 1 + K + (K + 1) S) + 2 B bytes."""
-    assert state[:4] == b"SLS5"
+    44 + 4 (N + 1 + K + (K + 1) S) + 2 B bytes."""
+    assert state[:4] == b"SLS6"
     locations, speeds, tracked, _frames, bins = struct.unpack_from("<IIIII", state, 8)
     assert locations == num_locations and speeds >= 1 and 1 <= tracked <= locations
     assert bins in (0, 64)
-    assert len(state) == 40 + 4 * (locations + 1 + tracked + (tracked + 1) * speeds) + 2 * bins
+    assert len(state) == 44 + 4 * (locations + 1 + tracked + (tracked + 1) * speeds) + 2 * bins
 
 
 # A JPEG of a tour image is localised at its own location, LOCALISED, with everything the
@@ -155,6 +155,10 @@ def test_session_across_three_frames(
             sceneloc.SessionStart.NEW if frame == 1 else sceneloc.SessionStart.CONTINUED
         )
         assert reply.session.location == QUERY_LOCATION and reply.session.localised
+        # Frames that agree with the track: its support rises, and the probability is the
+        # belief's, at most.
+        assert 0.5 < reply.session.track_support <= 1
+        assert 0 < reply.session.probability <= reply.session.belief <= 1
         check_session_state(reply.session.state, num_locations)
         assert client.session_state(map_name, "three-frames") == reply.session.state
         states.append(reply.session.state)

@@ -106,6 +106,11 @@ class SessionAnswer:
     # The session's filter state after this frame; the client sends it with the session's
     # next request by itself (Client.session_state).
     state: bytes = dataclasses.field(repr=False)
+    # The filter's belief within the tolerance of `location` alone, and how far recent frames
+    # support the track it follows (0-1): probability = track_support x belief + (1 -
+    # track_support) x the frame's own, at most the belief (0 from an older server).
+    belief: float = 0.0
+    track_support: float = 0.0
 
     @property
     def localised(self) -> bool:
@@ -117,6 +122,7 @@ class SessionAnswer:
             m.name, m.location, m.image_name, m.probability, m.off_map,
             _enum(Decision, m.decision), m.min_confidence, m.frames,
             _enum(SessionStart, m.start), m.camera_scale, m.measured_camera_scale, m.state,
+            m.belief, m.track_support,
         )
 
 
