@@ -47,10 +47,11 @@ FrameEvidence Frame(int locations, int where, std::mt19937* rng) {
   return e;
 }
 
-void BM_FilterUpdate(benchmark::State& state) {
+// One frame of a session on a map of range(0) locations, with `options`.
+void RunFilterUpdate(benchmark::State& state, const SequenceOptions& options) {
   const int n = static_cast<int>(state.range(0));
   const Map map = MakeMap(n);
-  const SequenceFilter filter(map, SequenceOptions{});
+  const SequenceFilter filter(map, options);
   std::mt19937 rng(1);
   std::vector<FrameEvidence> frames;
   for (int t = 0; t < 64; ++t) frames.push_back(Frame(n, (t * n) / 64, &rng));
@@ -65,7 +66,17 @@ void BM_FilterUpdate(benchmark::State& state) {
   state.counters["token_bytes"] = static_cast<double>(
       SerializeSessionToken(session, {"key", "robot", 0, n, filter.num_speeds()}).size());
 }
+void BM_FilterUpdate(benchmark::State& state) { RunFilterUpdate(state, SequenceOptions{}); }
 BENCHMARK(BM_FilterUpdate)->Arg(200)->Arg(1000)->Arg(3000)->Arg(10000)->Complexity(benchmark::oN);
+
+// The same without the check of the track (sequence.support_weight 0: the probability is the
+// belief alone): the difference is what SequenceFilter::CheckTrack costs.
+void BM_FilterUpdateBeliefOnly(benchmark::State& state) {
+  SequenceOptions options;
+  options.support_weight = 0;
+  RunFilterUpdate(state, options);
+}
+BENCHMARK(BM_FilterUpdateBeliefOnly)->Arg(200)->Arg(10000);
 
 // 1,000 live sessions in the server's store, each after one frame: the memory they hold.
 void BM_ThousandSessions(benchmark::State& state) {

@@ -33,6 +33,10 @@ struct Workspace {
   std::vector<float> sped;    // Predict: after the change of speed
   std::vector<float> moved;   // Predict: after the step
   std::vector<double> log_lik;
+  // Observe: the frame's single-frame posterior over the locations, exp((s_l - top) / T)
+  // over posterior_total (empty: the frame has no evidence), which CheckTrack reads after it.
+  std::vector<double> posterior;
+  double posterior_total = 0;
   std::vector<double> lik;  // Spread
   std::vector<double> at;   // Compact: every speed together
   std::vector<uint32_t> order;
@@ -206,6 +210,8 @@ void SequenceFilter::Observe(const std::vector<float>& s, double in_map,
   const bool has_scores =
       s.size() == static_cast<size_t>(n) &&
       *std::max_element(s.begin(), s.end()) != *std::min_element(s.begin(), s.end());
+  std::vector<double>& posterior = ThreadWorkspace().posterior;
+  posterior.clear();
   if (!has_scores && in_map < 0) return;  // nothing observed: prediction only
   const double p_in = in_map < 0 ? 0.5 : std::clamp(in_map, 1e-4, 1 - 1e-4);
   const double gamma = options_.evidence_weight;
@@ -216,8 +222,10 @@ void SequenceFilter::Observe(const std::vector<float>& s, double in_map,
   log_lik.assign(static_cast<size_t>(n) + 1, std::log(p_in));
   if (has_scores) {
     const float top = *std::max_element(s.begin(), s.end());
+    posterior.resize(static_cast<size_t>(n));
     double z = 0;
-    for (int l = 0; l < n; ++l) z += std::exp((s[l] - top) / temperature_);
+    for (int l = 0; l < n; ++l) z += posterior[l] = std::exp((s[l] - top) / temperature_);
+    ThreadWorkspace().posterior_total = z;
     const double offset = std::log(p_in) + std::log(static_cast<double>(n)) - std::log(z);
     for (int l = 0; l < n; ++l) log_lik[l] = (s[l] - top) / temperature_ + offset;
     if (!spread_.empty()) Spread(&log_lik);
@@ -341,28 +349,30 @@ SequenceAnswer SequenceFilter::Answer(const SequenceState& state) const {
   return a;
 }
 
-void SequenceFilter::CheckTrack(const std::vector<float>& scores, double in_map,
-                                SequenceAnswer* answer, SequenceState* state) const {
-  const int n = num_locations_, a = answer->location;
-  const bool has_scores = scores.size() == static_cast<size_t>(n) &&
-                          *std::max_element(scores.begin(), scores.end()) !=
-                              *std::min_element(scores.begin(), scores.end());
-  double own = 0;  // the frame's own P(within the tolerance of the answer), at most the belief
+void SequenceFilter::CheckTrack(double in_map, SequenceAnswer* answer, SequenceState* state) const {
   if (options_.support_weight > 0) {
+    const int n = num_locations_, a = answer->location;
+    // The frame's posterior as Observe read it: the mass within `reach` of the answer.
+    const Workspace& work = ThreadWorkspace();
+    const std::vector<double>& posterior = work.posterior;
+    const auto near = [&](int reach) {
+      const int low = std::max(0, a - reach), high = std::min(n - 1, a + reach);
+      return std::accumulate(posterior.begin() + low, posterior.begin() + high + 1, 0.0) /
+             work.posterior_total;
+    };
     const double h = options_.support_switch;
     const double prior = state->support * (1 - h) + (1 - state->support) * h;
     double ratio = 1;  // a frame without evidence says nothing about the track
-    if (has_scores) {
+    double own = 0;    // the frame's own P(within the tolerance of the answer), at most the belief
+    if (!posterior.empty()) {
       // The frame's posterior within a frame's travel of the answer, over the share of the
       // locations there: a likelihood ratio against a frame that says nothing.
       const int reach = std::max(forward_, backward_);
       const int inside = std::min(n - 1, a + reach) - std::max(0, a - reach) + 1;
-      const double near = LocationPosterior(scores, a, reach, temperature_, 1);
-      ratio = std::pow(std::max(near * n / inside, kLeastRatio), options_.support_weight);
+      ratio = std::pow(std::max(near(reach) * n / inside, kLeastRatio), options_.support_weight);
       // Never above the belief: a frame agreeing with an answer the belief doubts (a
       // look-alike the session has drifted onto) must not make it surer.
-      own = std::min(answer->belief, LocationPosterior(scores, a, tolerance_, temperature_, 1) *
-                                         (in_map < 0 ? 1.0 : in_map));
+      own = std::min(answer->belief, near(tolerance_) * (in_map < 0 ? 1.0 : in_map));
     }
     const double supported = prior * ratio;
     state->support = static_cast<float>(supported / (supported + 1 - prior));
@@ -472,7 +482,7 @@ SequenceAnswer SequenceFilter::Update(const FrameEvidence& evidence, SequenceSta
   Compact(belief, state);
   if (state->frames < UINT32_MAX) ++state->frames;  // a carried count can be anything
   SequenceAnswer answer = Answer(*state);
-  CheckTrack(*scores, evidence.in_map, &answer, state);
+  CheckTrack(evidence.in_map, &answer, state);
   answer.camera_log_scale = camera;
   MeasureCamera(evidence, answer, state);
   answer.measured_camera_log_scale = CameraLogScale(*state);

@@ -185,12 +185,12 @@ class SequenceFilter {
   void Compact(const std::vector<float>& belief, SequenceState* state) const;
   void Predict(std::vector<float>* belief) const;
   // Weighs `belief` by a frame's evidence: every location's fused score, and P(in the map)
-  // (-1 unknown).
+  // (-1 unknown). Leaves the frame's posterior in the thread's workspace for CheckTrack.
   void Observe(const std::vector<float>& scores, double in_map, std::vector<float>* belief) const;
-  // Weighs the session's support (SequenceState::support) by how far the frame's `scores`
-  // place the robot within a frame's travel of `answer`, and sets answer->probability.
-  void CheckTrack(const std::vector<float>& scores, double in_map, SequenceAnswer* answer,
-                  SequenceState* state) const;
+  // Weighs the session's support (SequenceState::support) by how far the frame's posterior
+  // (as the Observe just before read it) places the robot within a frame's travel of
+  // `answer`, and sets answer->probability and decision.
+  void CheckTrack(double in_map, SequenceAnswer* answer, SequenceState* state) const;
   // Adds the camera's scale measured on this frame's answer, if it gives one, to `state`.
   void MeasureCamera(const FrameEvidence& evidence, const SequenceAnswer& answer,
                      SequenceState* state) const;

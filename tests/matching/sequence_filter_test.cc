@@ -94,7 +94,9 @@ TEST_F(SequenceFilterTest, SteadyWalkIgnoresLookAlikes) {
     EXPECT_LE(std::abs(a.location - where), 2) << "frame " << t;
     // LOCALISED through the look-alikes once the frames have shown the track a while (a
     // session's support of its track starts at even odds).
-    if (t >= 6) EXPECT_EQ(a.decision, Decision::kLocalised) << "frame " << t;
+    if (t >= 6) {
+      EXPECT_EQ(a.decision, Decision::kLocalised) << "frame " << t;
+    }
   }
 }
 
@@ -383,7 +385,9 @@ TEST_F(SequenceFilterTest, TheToursCameraIsLearntAsItself) {
   for (int t = 0; t < 40; ++t) {
     const SequenceAnswer a = filter.Update(CameraFrame(40 + t, 0), &state);
     EXPECT_NEAR(a.camera_log_scale, 0, 0.03) << "frame " << t;
-    if (t >= 2) EXPECT_EQ(a.location, 40 + t) << "frame " << t;
+    if (t >= 2) {
+      EXPECT_EQ(a.location, 40 + t) << "frame " << t;
+    }
   }
   EXPECT_FALSE(state.camera_counts.empty());
 }
