@@ -39,8 +39,8 @@ struct LocaliseOptions {
   std::optional<float> min_confidence;
   // How much larger the robot's camera sees things than the tour's camera did, when known
   // (proto LocaliseRequest.camera_scale: focal length over image width, against the tour
-  // camera's; in [0.25, 4], else INVALID_ARGUMENT). Unset = the tour's camera, or in a
-  // session the scale it learns.
+  // camera's; in [0.25, 4], else INVALID_ARGUMENT). Unset = the one the frame's shape
+  // implies (the tour's for the tour frame's shape), or in a session the scale it learns.
   std::optional<float> camera_scale;
   // How a feature set's descriptors travel (feature-set calls only).
   DescriptorEncoding encoding = DescriptorEncoding::kFloat32;

@@ -4,8 +4,9 @@
 The confidence (common/matching/confidence.h, evidence.h) is the softmax posterior of every
 location's fused evidence at temperature T (at plateau * T within tolerance + 1 of the
 answer), summed over the answer's +-tolerance, averaged over cameras within +-2 spreads of
-the tour's (the verified candidates re-scored for each; MatchOptions::
-confidence_scale_spread), times P(in the map). T is a constant of the method, not of a map; it
+the one the query was read with (the verified candidates re-scored for each; the spread is
+MatchOptions::confidence_scale_spread and the camera's doubt in quadrature: FrameCamera in
+localiser.h), times P(in the map). T is a constant of the method, not of a map; it
 was chosen on the development sets and must be re-checked whenever the evidence changes (a
 new descriptor, a new stage).
 
@@ -67,6 +68,8 @@ class Query:
         self.scores = np.asarray(e["scores"], dtype=float)
         self.candidates = [c for c in e.get("candidates", []) if 0 <= c[0] < len(self.scores)]
         self.in_map = e["in_map"]
+        # the camera the query was read with and its doubt (absent before 2026-12-05: 0, 0)
+        self.camera, self.doubt = e.get("camera", (0.0, 0.0))
         self.predicted, self.reported = q["sceneloc"]
         self.settings = settings
         tolerance = settings.tolerance
@@ -96,7 +99,8 @@ class Query:
         if st.spread > 0 and st.sigma > 0 and self.candidates:
             x = np.arange(-4, 5) / 2.0  # +-2 spreads in half spreads (CameraAveragedPosterior)
             w = np.exp(-x * x / 2)
-            p = sum(wi * self.posterior(self.scores_at(xi * st.spread), t)
+            spread = np.hypot(st.spread, self.doubt)
+            p = sum(wi * self.posterior(self.scores_at(self.camera + xi * spread), t)
                     for wi, xi in zip(w, x)) / w.sum()
         else:
             p = self.posterior(s, t)

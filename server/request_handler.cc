@@ -264,7 +264,10 @@ Status RequestHandler::HandleLocalise(const v1::LocaliseRequest& request,
   match.deadline = deadline;
   if (request.top_k() > 0) match.top_k = request.top_k();
   if (request.has_min_confidence()) match.min_confidence = request.min_confidence();
-  if (request.has_camera_scale()) match.camera_log_scale = std::log(request.camera_scale());
+  if (request.has_camera_scale()) {
+    match.camera_log_scale = std::log(request.camera_scale());
+    match.camera_known = true;
+  }
   StatusOr<LocaliseResult> localised = Localise(features, map->map, match, pool_);
   if (localised.status().code() == StatusCode::kDeadlineExceeded) {
     return DeadlineExceeded(localised.status().message() + "; budget " +
@@ -274,6 +277,8 @@ Status RequestHandler::HandleLocalise(const v1::LocaliseRequest& request,
                             std::to_string(timings.extract_ms()) + " ms");
   }
   SCENELOC_ASSIGN_OR_RETURN(LocaliseResult result, std::move(localised));
+  match.camera_log_scale = result.camera_log_scale;  // the frame's, unless the request stated one
+  match.camera_log_doubt = result.camera_log_doubt;
   if (!request.session().empty()) {
     const SessionSeed seed{request.reset_session(), other_map, carried ? &*carried : nullptr};
     const double camera = UpdateSession(request, client, *map, match, result, seed, reply);
@@ -281,6 +286,7 @@ Status RequestHandler::HandleLocalise(const v1::LocaliseRequest& request,
     // learnt, unless the request states one): the same frame, knowing the robot's camera.
     if (camera != match.camera_log_scale) {
       match.camera_log_scale = camera;
+      match.camera_log_doubt = 0;  // measured by the session
       ReadWithCamera(map->map, match, &result);
     }
   }

@@ -73,13 +73,15 @@ nlohmann::json QueriesJson(const sl::SetResult& r) {
          {"baseline", {o.baseline.predicted, o.baseline.confidence}},
          {"baseline+ransac", {o.reranked.predicted, o.reranked.confidence}},
          // What our confidence is made of (common/matching/confidence.h): every
-         // location's fused evidence, P(in the map) and the verified candidates (whose
-         // scores the average over cameras re-reads), so that its constants can be
-         // re-fitted offline (scripts/fit_confidence.py).
+         // location's fused evidence, P(in the map), the verified candidates (whose
+         // scores the average over cameras re-reads) and the camera they were read with
+         // and its doubt, so that its constants can be re-fitted offline
+         // (scripts/fit_confidence.py).
          {"evidence",
           {{"in_map", o.in_map},
            {"scores", o.location_scores},
-           {"candidates", CandidatesJson(o.candidates)}}}});
+           {"candidates", CandidatesJson(o.candidates)},
+           {"camera", {o.camera_log_scale, o.camera_log_doubt}}}}});
   }
   return out;
 }

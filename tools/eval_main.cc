@@ -228,7 +228,10 @@ sl::Status WriteOutputs(const Args& args, const sl::EvalReport& report) {
 int Run(const Args& args) {
   sl::MatchOptions options;
   if (sl::Status s = LoadOptions(args, &options); !s.ok()) return Fail(s.message());
-  if (args.camera_scale > 0) options.camera_log_scale = std::log(args.camera_scale);
+  if (args.camera_scale > 0) {
+    options.camera_log_scale = std::log(args.camera_scale);
+    options.camera_known = true;
+  }
   sl::Stopwatch load_watch;
   auto map = sl::LoadMap(args.map_path);
   if (!map.ok()) return Fail(map.status().message());
@@ -298,8 +301,9 @@ int main(int argc, char** argv) {
                "route); implies --sequence");
   app.add_option("--camera-scale", args.camera_scale,
                  "the query camera as a client states it (LocaliseRequest.camera_scale): focal "
-                 "length over image width against the tour camera's (default: not stated: the "
-                 "tour's, or in a session what it learns)")
+                 "length over image width against the tour camera's (default: not stated: the one "
+                 "the frame's shape implies, the tour's for the tour's shape; in a session what "
+                 "it learns)")
       ->check(CameraScaleRange());
   CLI11_PARSE(app, argc, argv);
   if (print_config) {

@@ -114,7 +114,9 @@ double CameraAveragedPosterior(const std::vector<float>& location_scores,
                                const std::vector<CandidateEvidence>& candidates, int answer,
                                int tolerance, double temperature, const MatchOptions& options) {
   const double plateau = options.confidence_plateau;
-  const double spread = options.confidence_scale_spread;
+  const double spread = options.confidence_scale_spread > 0
+                            ? std::hypot(options.confidence_scale_spread, options.camera_log_doubt)
+                            : 0.0;
   const size_t n = location_scores.size();
   if (spread <= 0 || options.verify_scale_sigma <= 0 || candidates.empty() || n == 0) {
     return LocationPosterior(location_scores, answer, tolerance, temperature, plateau);

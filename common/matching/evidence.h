@@ -48,11 +48,11 @@ void ScoreCandidates(const std::vector<CandidateEvidence>& candidates, const Mat
 
 // P(within tolerance | in the map) averaged over the robot's camera (our departure): the
 // answer's LocationPosterior (confidence.h) with the candidates scored for each camera whose
-// log scale lies within +-2 options.confidence_scale_spread of options.camera_log_scale,
-// weighted by a normal of that spread; the other locations' scores do not depend on the
-// camera. The answer stays the one ranked with camera_log_scale. LocationPosterior of
-// `location_scores` itself when the spread or verify_scale_sigma is 0 (no scale cue to doubt)
-// or nothing was verified. O(locations + candidates x 9).
+// log scale lies within +-2 spreads of options.camera_log_scale, weighted by a normal of
+// the spread (confidence_scale_spread and camera_log_doubt in quadrature); the other locations'
+// scores do not depend on the camera. The answer stays the one ranked with camera_log_scale.
+// LocationPosterior of `location_scores` itself when confidence_scale_spread or verify_scale_sigma
+// is 0 (no scale cue to doubt) or nothing was verified. O(locations + candidates x 9).
 double CameraAveragedPosterior(const std::vector<float>& location_scores,
                                const std::vector<CandidateEvidence>& candidates, int answer,
                                int tolerance, double temperature, const MatchOptions& options);

@@ -108,6 +108,8 @@ std::vector<int> RankByValue(const std::vector<float>& value) {
 // implies.
 void RankAndAssess(const Map& map, const MatchOptions& options,
                    const std::vector<RankedLocation>& rest, double paper, LocaliseResult* result) {
+  result->camera_log_scale = options.camera_log_scale;
+  result->camera_log_doubt = options.camera_log_doubt;
   std::vector<CandidateEvidence>& candidates = result->candidates;
   for (CandidateEvidence& c : candidates) c.score = FuseEvidence(c, options);
   ScoreCandidates(candidates, options, &result->location_scores);
@@ -229,9 +231,24 @@ StatusOr<LocaliseResult> LocaliseInFrame(const FeatureSet& features, const Map& 
 
 }  // namespace
 
+FrameCameraGuess FrameCamera(int width, int height, const Map& map) {
+  if (width <= 0 || height <= 0 || map.image_width <= 0 || map.image_height <= 0) return {};
+  // log(tour aspect / frame aspect): the vertical field of view's camera.
+  const double vertical = std::log(static_cast<double>(map.image_width) * height /
+                                   (static_cast<double>(map.image_height) * width));
+  if (std::abs(vertical) < 0.02) return {};
+  return {vertical / 2, std::abs(vertical) / 2};
+}
+
 StatusOr<LocaliseResult> Localise(const FeatureSet& features, const Map& map,
-                                  const MatchOptions& options, ThreadPool* pool) {
+                                  const MatchOptions& given, ThreadPool* pool) {
   SCENELOC_RETURN_IF_ERROR(ValidateFeatureSet(features));
+  MatchOptions options = given;
+  if (!options.camera_known) {
+    const FrameCameraGuess guess = FrameCamera(features.image_width, features.image_height, map);
+    options.camera_log_scale = guess.log_scale;
+    options.camera_log_doubt = guess.doubt;
+  }
   if (!features.holistic.empty() && map.has_holistic() &&
       features.holistic_grid != map.holistic_grid) {
     const HolisticGrid& q = features.holistic_grid;

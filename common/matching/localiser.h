@@ -80,8 +80,16 @@ struct MatchOptions {
   // Not a setting: log(robot camera's size / tour camera's) of one thing seen from the same
   // place, i.e. the two focal lengths' ratio in the map's frame. The scale cue measures
   // agreement from it instead of from 0. A request may state it (LocaliseRequest.
-  // camera_scale) and a session learns it (sequence_filter.h); else the tour's camera (0).
+  // camera_scale) and a session learns it (sequence_filter.h); else, unless camera_known,
+  // Localise takes the one the frame's shape implies (FrameCamera: the tour's camera, 0, for
+  // a frame of the tour frame's shape).
   double camera_log_scale = 0;
+  // Not a setting: camera_log_scale is known (stated by the client, learnt by a session)
+  // rather than assumed from the frame.
+  bool camera_known = false;
+  // Not a setting: how far the camera in use may be off beyond confidence_scale_spread (one
+  // standard deviation; the confidence averages over both, in quadrature). FrameCamera's.
+  double camera_log_doubt = 0;
   // Fusion of the evidence (FuseEvidence in localiser.cc): a candidate's score is its
   // holistic z-score plus verify_weight for every scale-weighted inlier above
   // verify_chance_inliers, the count a wrong candidate reaches by chance. Without holistic
@@ -118,6 +126,20 @@ struct MatchOptions {
   // The ranges and choices of MatchSettings.
   Status Validate() const;
 };
+
+// The robot camera a frame of `width` x `height` pixels implies when nobody states it, on the
+// scale of MatchOptions::camera_log_scale (which relates focal lengths over image width): the
+// tour's (0, no doubt) for a frame of the tour frame's shape. A frame of another shape (a 4:3
+// sensor against a 16:9 tour) may share the tour camera's horizontal field of view (0) or its
+// vertical one (log of the tour frame's aspect ratio over the frame's: a 4:3 crop of a 16:9
+// view looks 4/3 larger once brought to the map's width), or neither, and one frame does not
+// say which: halfway between, doubted by half the distance. Shapes within 2% count as equal
+// (rounding of a resized frame).
+struct FrameCameraGuess {
+  double log_scale = 0;
+  double doubt = 0;
+};
+FrameCameraGuess FrameCamera(int width, int height, const Map& map);
 
 // The camera scales a request may state (LocaliseRequest.camera_scale): a focal length a
 // quarter or four times the tour camera's, relative to image width.
@@ -183,14 +205,21 @@ struct LocaliseResult {
   // Every tour location's evidence on the fused scale (LocationScores in evidence.h): the
   // candidates' fused scores, the others' holistic z-score.
   std::vector<float> location_scores;
+  // The camera the evidence was read with (MatchOptions::camera_log_scale, camera_log_doubt):
+  // the caller's when known, else the frame's (FrameCamera).
+  double camera_log_scale = 0;
+  double camera_log_doubt = 0;
 };
 
-// Localises one frame. `pool` may be null (runs on the caller). Thread-safe: any number
-// of calls may share one map and one pool. REQUIRES: map is Validate()d and Finalize()d.
+// Localises one frame, with options.camera_log_scale when options.camera_known, else with the
+// camera the frame's shape implies (FrameCamera). `pool` may be null (runs on the caller).
+// Thread-safe: any number of calls may share one map and one pool. REQUIRES: map is Validate()d and
+// Finalize()d.
 StatusOr<LocaliseResult> Localise(const FeatureSet& features, const Map& map,
                                   const MatchOptions& options, ThreadPool* pool);
 
-// Reads `result` (Localise's, with any camera) again with options.camera_log_scale: its
+// Reads `result` (Localise's, with any camera) again with options.camera_log_scale (and its
+// camera_log_doubt; camera_known is not read): its
 // verified candidates' fused scores, their entries of location_scores, the ranking, the
 // confidence and the decision, as Localise with that camera would have answered (nothing
 // else depends on the camera). Takes min_confidence, top_k (at most the result's),

@@ -65,6 +65,9 @@ FrameEvidence EvidenceOf(const LocaliseResult& result, const Map& map,
   e.location_scores = result.location_scores;
   e.candidates = result.candidates;
   e.fusion = options;
+  e.fusion.camera_log_scale = result.camera_log_scale;
+  e.fusion.camera_log_doubt = result.camera_log_doubt;
+  e.fusion.camera_known = true;
   if (map.calibration.valid && result.nearest_holistic_distance >= 0) {
     e.in_map = InMapProbability(map, result.nearest_holistic_distance);
   }
@@ -383,12 +386,12 @@ void SequenceFilter::CheckTrack(double in_map, SequenceAnswer* answer, SequenceS
       answer->probability >= options_.min_confidence ? Decision::kLocalised : Decision::kUnknown;
 }
 
-double SequenceFilter::CameraLogScale(const SequenceState& state) const {
+double SequenceFilter::CameraLogScale(const SequenceState& state, double unlearnt) const {
   if (!options_.learn_camera_scale || state.camera_counts.size() != SequenceOptions::kCameraBins) {
-    return 0;
+    return unlearnt;
   }
   const double total = std::accumulate(state.camera_counts.begin(), state.camera_counts.end(), 0.0);
-  if (total < options_.camera_min_frames) return 0;
+  if (total < options_.camera_min_frames) return unlearnt;
   // The median, spread evenly over its bin.
   double below = 0;
   for (int i = 0; i < SequenceOptions::kCameraBins; ++i) {
@@ -399,7 +402,7 @@ double SequenceFilter::CameraLogScale(const SequenceState& state) const {
     }
     below += count;
   }
-  return 0;
+  return unlearnt;
 }
 
 void SequenceFilter::MeasureCamera(const FrameEvidence& evidence, const SequenceAnswer& answer,
@@ -469,7 +472,8 @@ SequenceAnswer SequenceFilter::Update(const FrameEvidence& evidence, SequenceSta
   }
   // The frame's evidence read with the session's camera (or the one its client states):
   // only the verified candidates' scores depend on it.
-  const double camera = evidence.camera_log_scale.value_or(CameraLogScale(*state));
+  const double framed = evidence.fusion.camera_log_scale;
+  const double camera = evidence.camera_log_scale.value_or(CameraLogScale(*state, framed));
   const std::vector<float>* scores = &evidence.location_scores;
   if (camera != evidence.fusion.camera_log_scale && !evidence.candidates.empty()) {
     work.scores = evidence.location_scores;
@@ -485,7 +489,8 @@ SequenceAnswer SequenceFilter::Update(const FrameEvidence& evidence, SequenceSta
   CheckTrack(evidence.in_map, &answer, state);
   answer.camera_log_scale = camera;
   MeasureCamera(evidence, answer, state);
-  answer.measured_camera_log_scale = CameraLogScale(*state);
+  answer.measured_camera_log_scale =
+      CameraLogScale(*state, evidence.camera_log_scale.has_value() ? 0.0 : framed);
   return answer;
 }
 

@@ -70,7 +70,8 @@ struct FrameEvidence {
   double in_map = -1;
   // The verified candidates and the settings their scores were fused with: a session that
   // has learnt its camera's scale reads them again with it (SequenceOptions::
-  // learn_camera_scale), and measures the scale on them. Empty: nothing to re-read.
+  // learn_camera_scale), and measures the scale on them. Empty: nothing to re-read. Their
+  // camera_log_scale is the one the frame was read with (LocaliseResult's).
   std::vector<CandidateEvidence> candidates;
   MatchOptions fusion;
   // The robot camera's log scale as its client states it (LocaliseRequest.camera_scale):
@@ -123,10 +124,11 @@ struct SequenceAnswer {
   uint32_t frames = 0;  // frames the session has seen, this one included
   Decision decision = Decision::kUnknown;
   // The camera's log scale the session read this frame with: the stated one, else the
-  // learnt one (0 until it has learnt one).
+  // learnt one (until it has learnt one, the one the frame was localised with: FrameCamera,
+  // 0 for a frame of the tour frame's shape).
   double camera_log_scale = 0;
   // What the session has learnt of its camera after this frame (CameraLogScale), stated
-  // camera or not.
+  // camera or not; until it has learnt one, the frame's camera as above (0 when stated).
   double measured_camera_log_scale = 0;
 };
 
@@ -143,9 +145,10 @@ class SequenceFilter {
   SequenceAnswer Update(const FrameEvidence& evidence, SequenceState* state) const;
 
   // The camera's log scale a session with `state` reads its next frame with: the median of
-  // its measurements once there are camera_min_frames of them, else 0 (the tour's camera);
-  // always 0 when learn_camera_scale is off.
-  double CameraLogScale(const SequenceState& state) const;
+  // its measurements once there are camera_min_frames of them, else `unlearnt` (the camera
+  // the frame was localised with; 0 = the tour's); always `unlearnt` when
+  // learn_camera_scale is off.
+  double CameraLogScale(const SequenceState& state, double unlearnt = 0) const;
 
   // Whether `state` is a state of this filter: its sizes, tracked locations ascending on
   // the map, and a support in [0, 1]. Belief values are not checked. A state that tracks

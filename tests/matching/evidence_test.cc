@@ -195,6 +195,29 @@ TEST(EvidenceTest, CameraAveragedPosteriorIsTheMeanOverCameras) {
       0.0);
 }
 
+// A camera in doubt (a frame whose shape leaves it open: FrameCamera) widens the cameras
+// averaged over, the doubt and the spread in quadrature; with the spread turned off there is
+// no average, doubt or not.
+TEST(EvidenceTest, CameraDoubtWidensTheAverage) {
+  Route doubted = RivalRoute(52);
+  doubted.options.confidence_scale_spread = 0.1;
+  doubted.options.camera_log_doubt = 0.144;
+  Route wide = RivalRoute(52);
+  wide.options.confidence_scale_spread = std::hypot(0.1, 0.144);
+  Route sure = RivalRoute(52);
+  sure.options.confidence_scale_spread = 0.1;
+  const std::vector<float> s = sure.Scores();
+  const double with_doubt =
+      CameraAveragedPosterior(s, doubted.candidates, 20, 2, 0.2, doubted.options);
+  EXPECT_NEAR(with_doubt, CameraAveragedPosterior(s, wide.candidates, 20, 2, 0.2, wide.options),
+              1e-12);
+  EXPECT_LT(with_doubt,
+            CameraAveragedPosterior(s, sure.candidates, 20, 2, 0.2, sure.options) - 0.02);
+  doubted.options.confidence_scale_spread = 0;
+  EXPECT_EQ(CameraAveragedPosterior(s, doubted.candidates, 20, 2, 0.2, doubted.options),
+            LocationPosterior(s, 20, 2, 0.2, doubted.options.confidence_plateau));
+}
+
 // An answer that wins only for exactly the camera in use is less certain over cameras; one
 // that wins for any camera nearby is not; the average is centred on the camera in use.
 TEST(EvidenceTest, CameraAveragedPosteriorDoubtsAnswersOfOneCamera) {

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <random>
+#include <utility>
 
 #include "common/matching/descriptor_similarity.h"
 #include "common/matching/neighbourhood.h"
@@ -137,6 +138,7 @@ TEST(LocaliserTest, ReadWithCameraIsLocaliseWithThatCamera) {
   tour_camera.min_confidence = 0.5;
   MatchOptions robot_camera = tour_camera;
   robot_camera.camera_log_scale = std::log(1.35);
+  robot_camera.camera_known = true;
   auto read = Localise(f, map, tour_camera, nullptr);
   const auto direct = Localise(f, map, robot_camera, nullptr);
   ASSERT_TRUE(read.ok() && direct.ok());
@@ -172,6 +174,7 @@ TEST(LocaliserTest, ReadWithCameraIsLocaliseWithThatCamera) {
   tour_camera.confidence_model = "paper";
   robot_camera = tour_camera;
   robot_camera.camera_log_scale = std::log(1.35);
+  robot_camera.camera_known = true;
   auto paper = Localise(f, map, tour_camera, nullptr);
   const auto paper_direct = Localise(f, map, robot_camera, nullptr);
   ASSERT_TRUE(paper.ok() && paper_direct.ok());
@@ -187,6 +190,68 @@ TEST(LocaliserTest, ReadWithCameraIsLocaliseWithThatCamera) {
 }
 
 // Untrusted feature sets: mismatched counts and non-finite numbers are refused.
+// The camera a frame's shape implies: the tour's for the tour frame's shape at any
+// resolution; for another shape, halfway between the tour camera's horizontal field of view
+// and its vertical one, doubted by half the distance.
+TEST(LocaliserTest, FrameCameraIsHalfwayBetweenTheFieldsOfView) {
+  Map map;
+  map.image_width = 640;
+  map.image_height = 360;
+  for (const auto& [w, h] : {std::pair{640, 360}, {320, 180}, {960, 540}, {642, 360}, {0, 360}}) {
+    const FrameCameraGuess same = FrameCamera(w, h, map);
+    EXPECT_EQ(same.log_scale, 0) << w << "x" << h;
+    EXPECT_EQ(same.doubt, 0) << w << "x" << h;
+  }
+  const double four_thirds = std::log(4.0 / 3.0);
+  // 4:3 frames, the sides cut off or the top and bottom added: brought to the map's width,
+  // a camera of the tour's vertical field of view sees things 4/3 larger.
+  for (const auto& [w, h] : {std::pair{480, 360}, {640, 480}, {160, 120}}) {
+    const FrameCameraGuess g = FrameCamera(w, h, map);
+    EXPECT_NEAR(g.log_scale, four_thirds / 2, 1e-9) << w << "x" << h;
+    EXPECT_NEAR(g.doubt, four_thirds / 2, 1e-9) << w << "x" << h;
+  }
+  const FrameCameraGuess wider = FrameCamera(640, 270, map);  // 64:27 against 16:9
+  EXPECT_NEAR(wider.log_scale, -four_thirds / 2, 1e-9);
+  EXPECT_NEAR(wider.doubt, four_thirds / 2, 1e-9);
+}
+
+// Localise reads a frame of another shape with the camera its shape implies unless the
+// camera is known, and says which it used; a known camera is used as given.
+TEST(LocaliserTest, AnUnknownCameraIsTheFramesShapes) {
+  const Map map = test::MakeRandomMap(15, 600, 25);
+  FeatureSet f = FeaturesOfImage(map, 9, 4);
+  f.image_height = map.image_width * 3 / 4;  // a 4:3 frame of the 16:9 tour's width
+  const FrameCameraGuess guess = FrameCamera(f.image_width, f.image_height, map);
+  ASSERT_GT(guess.log_scale, 0.1);
+  MatchOptions unknown;
+  unknown.holistic_top = 0;
+  const auto assumed = Localise(f, map, unknown, nullptr);
+  ASSERT_TRUE(assumed.ok()) << assumed.status().ToString();
+  EXPECT_EQ(assumed->camera_log_scale, guess.log_scale);
+  EXPECT_EQ(assumed->camera_log_doubt, guess.doubt);
+  MatchOptions as_guessed = unknown;
+  as_guessed.camera_known = true;
+  as_guessed.camera_log_scale = guess.log_scale;
+  as_guessed.camera_log_doubt = guess.doubt;
+  const auto given = Localise(f, map, as_guessed, nullptr);
+  ASSERT_TRUE(given.ok());
+  EXPECT_EQ(given->location_scores, assumed->location_scores);
+  EXPECT_FLOAT_EQ(given->confidence, assumed->confidence);
+  MatchOptions tour = unknown;
+  tour.camera_known = true;  // the tour's camera, stated
+  const auto stated = Localise(f, map, tour, nullptr);
+  ASSERT_TRUE(stated.ok());
+  EXPECT_EQ(stated->camera_log_scale, 0);
+  EXPECT_EQ(stated->camera_log_doubt, 0);
+  EXPECT_NE(stated->location_scores, assumed->location_scores);  // the scale cue moved
+  // A frame of the tour's shape: the tour's camera, known or not.
+  f.image_height = map.image_height;
+  const auto framed = Localise(f, map, unknown, nullptr);
+  ASSERT_TRUE(framed.ok());
+  EXPECT_EQ(framed->camera_log_scale, 0);
+  EXPECT_EQ(framed->location_scores, stated->location_scores);
+}
+
 TEST(LocaliserTest, RefusesMalformedFeatureSets) {
   const Map map = test::MakeRandomMap(5, 50, 23);
   FeatureSet f = FeaturesOfImage(map, 2, 3);

@@ -99,7 +99,9 @@ TEST_F(SessionTest, SessionFollowsTheWalk) {
     EXPECT_LE(s.track_support(), 1.0f);
     // The frames agree with the track: its support is above even odds (not far above: on a
     // tour this short, a frame within a frame's travel of the answer says little).
-    if (i >= 1) EXPECT_GT(s.track_support(), 0.5f) << "frame " << i;
+    if (i >= 1) {
+      EXPECT_GT(s.track_support(), 0.5f) << "frame " << i;
+    }
     if (i >= 2) {
       EXPECT_LE(std::abs(s.location() - i), 2) << "frame " << i;
       EXPECT_EQ(s.decision(), v1::LOCALISED) << "frame " << i;
@@ -123,7 +125,9 @@ TEST_F(SessionTest, SessionLearnsTheRobotsCamera) {
     options.session = "zoomed";
     auto reply = client_->Localise(kTestMapName, features, options);
     ASSERT_TRUE(reply.ok()) << reply.status().ToString();
-    if (i < 2) EXPECT_FLOAT_EQ(reply->session().camera_scale(), 1.0f) << "frame " << i;
+    if (i < 2) {
+      EXPECT_FLOAT_EQ(reply->session().camera_scale(), 1.0f) << "frame " << i;
+    }
     scale = reply->session().camera_scale();
   }
   EXPECT_NEAR(scale, 1.3f, 0.06f);
@@ -167,6 +171,43 @@ TEST_F(SessionTest, TheFramesOwnAnswerIsReadWithTheSessionsCamera) {
   EXPECT_FLOAT_EQ(told->camera_scale(), last->camera_scale());
   EXPECT_NEAR(told->confidence(), last->confidence(), 1e-3);
   EXPECT_EQ(told->locations(0).index(), last->locations(0).index());
+}
+
+// A frame of another shape than the tour's (4:3 against the test tour's 16:9) states no
+// camera: it is read halfway between the tour camera's horizontal field of view (1) and its
+// vertical one (4/3), in a session too until the session has measured the camera — here
+// the tour's own (the keypoints are the tour's), which it then reads with. A stated camera
+// is used as stated.
+TEST_F(SessionTest, AFrameOfAnotherShapeIsReadWithTheCameraItImplies) {
+  const auto taller = [](int i) {
+    FeatureSet features = test::TourFeatures(i);
+    features.image_height = features.image_width * 3 / 4;
+    return features;
+  };
+  const float halfway = std::sqrt(4.0f / 3.0f);
+  auto alone = client_->Localise(kTestMapName, taller(2));
+  ASSERT_TRUE(alone.ok()) << alone.status().ToString();
+  EXPECT_NEAR(alone->camera_scale(), halfway, 1e-3);
+  LocaliseOptions stated;
+  stated.camera_scale = 1.0f;
+  auto told = client_->Localise(kTestMapName, taller(2), stated);
+  ASSERT_TRUE(told.ok());
+  EXPECT_FLOAT_EQ(told->camera_scale(), 1.0f);
+  LocaliseOptions in_session;
+  in_session.session = "four-thirds";
+  for (int i = 0; i < kTestTourLocations; ++i) {
+    auto reply = client_->Localise(kTestMapName, taller(i), in_session);
+    ASSERT_TRUE(reply.ok()) << reply.status().ToString();
+    EXPECT_FLOAT_EQ(reply->camera_scale(), reply->session().camera_scale()) << "frame " << i;
+    if (i < 2) {  // nothing measured yet
+      EXPECT_NEAR(reply->session().camera_scale(), halfway, 1e-3) << "frame " << i;
+      EXPECT_NEAR(reply->session().measured_camera_scale(), halfway, 1e-3) << "frame " << i;
+    }
+    if (i == kTestTourLocations - 1) {
+      EXPECT_NEAR(reply->session().camera_scale(), 1.0f, 0.06f);
+      EXPECT_EQ(reply->session().decision(), v1::LOCALISED);
+    }
+  }
 }
 
 // A camera the request states is the session's from its first frame; out of [0.25, 4] it is

@@ -198,6 +198,8 @@ Status RunOurs(const std::vector<FeatureSet>& queries, const Map& map, const Mat
                    ? InMapProbability(map, r.nearest_holistic_distance)
                    : -1;
     o.ranked = r.ranked;
+    o.camera_log_scale = r.camera_log_scale;
+    o.camera_log_doubt = r.camera_log_doubt;
     o.nearest_holistic_distance = r.nearest_holistic_distance;
     o.keypoints = queries[q].size();
   }

@@ -46,6 +46,8 @@ struct QueryOutcome {
   double in_map = -1;                         // ours, P(in the map); -1 unknown
   std::vector<RankedLocation> ranked;         // ours, the ranked answer
   float nearest_holistic_distance = -1;       // ours, LocaliseResult's
+  double camera_log_scale = 0;                // ours, the camera it was read with, and
+  double camera_log_doubt = 0;                // its doubt (LocaliseResult's)
   int keypoints = 0;                          // the query's feature count
   MethodOutcome baseline;                     // FLANN votes (when the baselines ran)
   MethodOutcome reranked;                     // the same, top 10 re-ranked by RANSAC inliers

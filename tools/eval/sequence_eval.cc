@@ -24,7 +24,7 @@ bool KeepsANeighbour(const std::vector<int>& runs) {
 // session's request.
 MethodOutcome OwnAnswerWithCamera(const QueryOutcome& o, const Map& map,
                                   const MatchOptions& options, double camera) {
-  if (camera == options.camera_log_scale || o.ranked.empty()) return o.ours;
+  if (camera == o.camera_log_scale || o.ranked.empty()) return o.ours;
   LocaliseResult r;
   r.ranked = o.ranked;
   r.candidates = o.candidates;
@@ -33,6 +33,7 @@ MethodOutcome OwnAnswerWithCamera(const QueryOutcome& o, const Map& map,
   r.confidence = o.ours.confidence;
   MatchOptions read = options;
   read.camera_log_scale = camera;
+  read.camera_log_doubt = 0;  // measured by the session
   ReadWithCamera(map, read, &r);
   MethodOutcome out = o.ours;
   out.predicted = r.ranked[0].index;
@@ -89,8 +90,11 @@ SequenceRun RunSequence(const std::vector<QueryOutcome>& outcomes, const Map& ma
       }
       since_jump_correct = since_jump_localised = 0;
     }
-    const FrameEvidence evidence{outcomes[q].location_scores, outcomes[q].in_map,
-                                 outcomes[q].candidates, options, stated_camera};
+    FrameEvidence evidence{outcomes[q].location_scores, outcomes[q].in_map, outcomes[q].candidates,
+                           options, stated_camera};
+    evidence.fusion.camera_log_scale = outcomes[q].camera_log_scale;  // as EvidenceOf
+    evidence.fusion.camera_log_doubt = outcomes[q].camera_log_doubt;
+    evidence.fusion.camera_known = true;
     Stopwatch watch;
     const SequenceAnswer a = filter.Update(evidence, &state);
     ms.push_back(watch.Milliseconds());

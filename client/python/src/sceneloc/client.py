@@ -125,7 +125,8 @@ class Client:
         camera_scale: how much larger the robot's camera sees things than the tour's camera
           did, when known: focal length over image width, against the tour camera's (e.g.
           1.33 for a 4:3 crop of a 16:9 tour camera's sensor); in [0.25, 4]. None = the
-          tour's camera, or in a session the scale it learns (SessionAnswer.camera_scale).
+          one the frame's shape implies (the tour's for the tour frame's shape), or in a
+          session the scale it learns (SessionAnswer.camera_scale).
 
         Raises the SceneLocError of an error reply (an unknown place is not one: the reply's
         decision is UNKNOWN), Timeout, or ValueError / TypeError for bad arguments.
