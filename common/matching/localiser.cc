@@ -237,7 +237,10 @@ FrameCameraGuess FrameCamera(int width, int height, const Map& map) {
   const double vertical = std::log(static_cast<double>(map.image_width) * height /
                                    (static_cast<double>(map.image_height) * width));
   if (std::abs(vertical) < 0.02) return {};
-  return {vertical / 2, std::abs(vertical) / 2};
+  // Within the scales a request may state (a frame of an extreme shape is not a camera).
+  const double halfway =
+      std::clamp(vertical / 2, std::log(kMinCameraScale), std::log(kMaxCameraScale));
+  return {halfway, std::abs(vertical) / 2};
 }
 
 StatusOr<LocaliseResult> Localise(const FeatureSet& features, const Map& map,

@@ -133,8 +133,8 @@ struct MatchOptions {
 // sensor against a 16:9 tour) may share the tour camera's horizontal field of view (0) or its
 // vertical one (log of the tour frame's aspect ratio over the frame's: a 4:3 crop of a 16:9
 // view looks 4/3 larger once brought to the map's width), or neither, and one frame does not
-// say which: halfway between, doubted by half the distance. Shapes within 2% count as equal
-// (rounding of a resized frame).
+// say which: halfway between (within the scales a request may state), doubted by half the
+// distance. Shapes within 2% count as equal (rounding of a resized frame).
 struct FrameCameraGuess {
   double log_scale = 0;
   double doubt = 0;

@@ -213,6 +213,11 @@ TEST(LocaliserTest, FrameCameraIsHalfwayBetweenTheFieldsOfView) {
   const FrameCameraGuess wider = FrameCamera(640, 270, map);  // 64:27 against 16:9
   EXPECT_NEAR(wider.log_scale, -four_thirds / 2, 1e-9);
   EXPECT_NEAR(wider.doubt, four_thirds / 2, 1e-9);
+  // An extreme shape stays within the scales a request may state; its doubt says how wide.
+  const FrameCameraGuess sliver = FrameCamera(16, 4000, map);
+  EXPECT_DOUBLE_EQ(sliver.log_scale, std::log(kMaxCameraScale));
+  EXPECT_GT(sliver.doubt, 2.0);
+  EXPECT_DOUBLE_EQ(FrameCamera(4000, 16, map).log_scale, std::log(kMinCameraScale));
 }
 
 // Localise reads a frame of another shape with the camera its shape implies unless the
