@@ -33,6 +33,7 @@
 #include "common/features/extractor.h"
 #include "common/features/opencv_threads.h"
 #include "common/features/sift_describer.h"
+#include "common/features/sift_detector.h"
 #include "common/map/map_io.h"
 #include "common/matching/localiser.h"
 #include "common/synthetic/tour_generator.h"
@@ -187,9 +188,21 @@ std::vector<Stage> MakeStages(Setup& s) {
     cv::Mat d;
     sift->detectAndCompute(s.f[i].gray, cv::noArray(), k, d);
   };
+  auto strips = [&s, &eo](size_t i) {
+    std::vector<cv::KeyPoint> k;
+    cv::Mat d;
+    SiftParameters p;
+    p.max_features = eo.max_features;
+    p.contrast_threshold = eo.contrast_threshold;
+    p.edge_threshold = eo.edge_threshold;
+    p.sigma = eo.sigma;
+    DetectAndDescribeSift(s.f[i].gray, p, &k, &d);
+  };
   return {
       {"floor: SIFT detectAndCompute, 1 thread", floor, {}},
       {"floor on a pool of 2 [pool]", floor, {}},
+      {"SIFT in strips (ours), 1 thread", strips, {}},
+      {"SIFT in strips (ours), pool of 2 [pool]", strips, {}},
       {"decode: colour, grey, resize (before)",
        [&s](size_t i) { FullDecode(s.in.jpegs[i], s.f[i].target); },
        {}},

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "common/features/sift_describer.h"
+#include "common/features/sift_detector.h"
 
 namespace sceneloc {
 
@@ -169,9 +170,10 @@ cv::Mat Equalise(const cv::Mat& gray, double clip) {
 // detection pyramid's doubled base, and holds only the images they are read from, with
 // each pixel's gradient computed once (sift_describer.h): the second pass costs little
 // more than the histograms.
-cv::Mat ContextDescriptors(cv::SIFT* sift, const cv::Mat& gray,
+cv::Mat ContextDescriptors(const SiftParameters& sift, const cv::Mat& gray,
                            const std::vector<cv::KeyPoint>& detected, const std::vector<int>& kept,
-                           double context_scale, int octave_layers, double sigma) {
+                           double context_scale) {
+  const int octave_layers = sift.octave_layers;
   const size_t n = kept.size();
   std::vector<cv::KeyPoint> wide;
   wide.reserve(n);
@@ -182,10 +184,12 @@ cv::Mat ContextDescriptors(cv::SIFT* sift, const cv::Mat& gray,
                                       [](const cv::KeyPoint& k) { return UnpackOctave(k) >= 0; });
   cv::Mat context;
   if (above_base) {
-    context = DescribeSiftKeypoints(gray, wide, octave_layers, sigma);
+    context = DescribeSiftKeypoints(gray, wide, octave_layers, sift.sigma);
   } else if (n > 0) {
     // Below 2x some stay on the doubled base, which only SIFT's own pyramid builds.
-    sift->compute(gray, wide, context);
+    cv::SIFT::create(sift.max_features, sift.octave_layers, sift.contrast_threshold,
+                     sift.edge_threshold, sift.sigma)
+        ->compute(gray, wide, context);
   }
   CV_Assert(wide.size() == n && context.rows == static_cast<int>(n));
   return context;
@@ -212,6 +216,16 @@ FeatureSet PackFeatures(const std::vector<cv::KeyPoint>& detected, const std::ve
     std::copy(c, c + kDescriptorSize, set.context.row(row).data());
   }
   return set;
+}
+
+SiftParameters SiftParametersOf(const ExtractorOptions& options) {
+  SiftParameters p;
+  p.max_features = options.max_features;
+  p.octave_layers = options.octave_layers;
+  p.contrast_threshold = options.contrast_threshold;
+  p.edge_threshold = options.edge_threshold;
+  p.sigma = options.sigma;
+  return p;
 }
 
 // Unit rows: RootSIFT when `root_sift`, else plain L2 normalisation.
@@ -262,20 +276,15 @@ class SiftExtractor final : public FeatureExtractor {
   FeatureSet ExtractOrThrow(const cv::Mat& image, const ExtractionTarget& target) const {
     const cv::Mat frame = WorkingFrame(image, target);
     const cv::Mat gray = options_.clahe_clip > 0 ? Equalise(frame, options_.clahe_clip) : frame;
-    // cv::SIFT holds per-call scratch state, so each call makes its own (cheap).
-    auto sift =
-        cv::SIFT::create(options_.max_features, options_.octave_layers, options_.contrast_threshold,
-                         options_.edge_threshold, options_.sigma);
-    // Detection and the local descriptors from one pyramid: exactly plain SIFT.
+    // Detection and the local descriptors from one pyramid: plain SIFT, with the pyramid
+    // built on every core (sift_detector.h).
+    const SiftParameters sift = SiftParametersOf(options_);
     std::vector<cv::KeyPoint> detected;
     cv::Mat local;
-    sift->detectAndCompute(gray, cv::noArray(), detected, local);
-    // detectAndCompute keeps keypoints and descriptor rows one-to-one; check, not assume.
+    DetectAndDescribeSift(gray, sift, &detected, &local);
     CV_Assert(local.rows == static_cast<int>(detected.size()));
     const std::vector<int> kept = StrongestFirst(detected, options_.max_features);
-    const cv::Mat context =
-        ContextDescriptors(sift.get(), gray, detected, kept, options_.context_scale,
-                           options_.octave_layers, options_.sigma);
+    const cv::Mat context = ContextDescriptors(sift, gray, detected, kept, options_.context_scale);
     FeatureSet set = PackFeatures(detected, kept, local, context, gray.size());
     NormaliseDescriptors(options_.root_sift, &set);
     if (!target.holistic.empty()) {

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <map>
+#include <opencv2/core/hal/hal.hpp>
 #include <opencv2/imgproc.hpp>
 #include <utility>
 
@@ -26,30 +27,11 @@ constexpr int kHistSize = kHistCols * kHistCols * kHistBins;
 int OctaveOf(const cv::KeyPoint& k) { return static_cast<int8_t>(k.octave & 0xff); }
 int LayerOf(const cv::KeyPoint& k) { return (k.octave >> 8) & 0xff; }
 
-// The gradient of a pyramid image at every pixel: magnitude, and orientation in degrees in
-// [0, 360]. Zero on the outermost rows and columns, where SIFT reads none.
-struct Gradient {
-  cv::Mat magnitude;
-  cv::Mat orientation;
-};
-
-Gradient GradientOf(const cv::Mat& image) {
-  Gradient g{cv::Mat::zeros(image.size(), CV_32F), cv::Mat::zeros(image.size(), CV_32F)};
-  if (image.rows < 3 || image.cols < 3) return g;
-  const int w = image.cols - 2;
-  const int h = image.rows - 2;
-  // Central differences, y pointing up (SIFT's convention).
-  const cv::Mat dx = image(cv::Rect(2, 1, w, h)) - image(cv::Rect(0, 1, w, h));
-  const cv::Mat dy = image(cv::Rect(1, 0, w, h)) - image(cv::Rect(1, 2, w, h));
-  cv::Mat magnitude = g.magnitude(cv::Rect(1, 1, w, h));
-  cv::Mat orientation = g.orientation(cv::Rect(1, 1, w, h));
-  cv::cartToPolar(dx, dy, magnitude, orientation, /*angleInDegrees=*/true);
-  return g;
-}
+using Gradient = SiftGradient;
 
 cv::Mat Blur(const cv::Mat& image, double sigma) {
   cv::Mat out;
-  cv::GaussianBlur(image, out, cv::Size(), sigma, sigma);
+  GaussianBlurInStrips(image, sigma, &out);
   return out;
 }
 
@@ -75,7 +57,7 @@ std::map<std::pair<int, int>, Gradient> PyramidGradients(const cv::Mat& gray,
     for (auto& [key, gradient] : gradients) {
       if (key.first != octave) continue;
       const double k2 = std::pow(2.0, 2.0 * key.second / octave_layers);
-      gradient = GradientOf(key.second == 0 ? layer0 : Blur(layer0, sigma * std::sqrt(k2 - 1)));
+      gradient = SiftGradientOf(key.second == 0 ? layer0 : Blur(layer0, sigma * std::sqrt(k2 - 1)));
     }
     if (octave == top || layer0.cols < 2 || layer0.rows < 2) break;
     cv::resize(Blur(layer0, sigma * std::sqrt(3.0)), layer0,
@@ -101,18 +83,11 @@ void NarrowToCells(float a, float b, int* lo, int* hi) {
   *hi = std::min(*hi, static_cast<int>(hi_f));
 }
 
-// Spreads one sample of weighted magnitude m at (rbin, cbin, obin) over the 8 neighbouring
-// (cell row, cell column, bin) entries, each by its trilinear share.
-void AddSample(float rbin, float cbin, float obin, float m, float* hist) {
-  const int r0 = static_cast<int>(std::floor(rbin));
-  const int c0 = static_cast<int>(std::floor(cbin));
-  int o0 = static_cast<int>(std::floor(obin));
-  const float fr = rbin - r0;
-  const float fc = cbin - c0;
-  const float fo = obin - o0;
-  if (o0 < 0) o0 += kBins;
-  if (o0 >= kBins) o0 -= kBins;
-  float* h = hist + ((r0 + 1) * kHistCols + c0 + 1) * kHistBins + o0;
+// Spreads one sample of weighted magnitude m at histogram entry `at` (the cell row, cell
+// column and bin below the sample's, margins included) over the 8 neighbouring (cell row,
+// cell column, bin) entries, each by its trilinear share (fractions fr, fc, fo).
+void AddSample(int at, float fr, float fc, float fo, float m, float* hist) {
+  float* h = hist + at;
   const float r1 = m * fr;
   const float r0w = m - r1;
   const float rc11 = r1 * fc;
@@ -156,9 +131,89 @@ void Finish(float* hist, float* out) {
   }
 }
 
-// One keypoint's descriptor into out[0..127]. `weight` is scratch.
-void Describe(const Gradient& g, const cv::KeyPoint& k, std::vector<float>* weight, float* out) {
-  const float to_octave = 1.f / static_cast<float>(1 << OctaveOf(k));
+}  // namespace
+
+int RowStripCount(int rows) {
+  constexpr int kMinStripRows = 16;
+  const int threads = cv::getNumThreads();
+  return threads <= 1 ? 1 : std::max(1, std::min(2 * threads, rows / kMinStripRows));
+}
+
+namespace {
+
+// Calls fn(begin, end) over [0, rows) in RowStripCount strips on OpenCV's parallel loops.
+template <typename Fn>
+void ForEachRowStrip(int rows, const Fn& fn) {
+  const int strips = RowStripCount(rows);
+  cv::parallel_for_(
+      cv::Range(0, strips),
+      [&](const cv::Range& range) {
+        for (int s = range.start; s < range.end; ++s) {
+          fn(rows * s / strips, rows * (s + 1) / strips);
+        }
+      },
+      strips);
+}
+
+}  // namespace
+
+void GaussianBlurInStrips(const cv::Mat& src, double sigma, cv::Mat* dst) {
+  dst->create(src.size(), src.type());
+  ForEachRowStrip(src.rows, [&](int begin, int end) {
+    cv::Mat out = dst->rowRange(begin, end);
+    cv::GaussianBlur(src.rowRange(begin, end), out, cv::Size(), sigma, sigma);
+  });
+}
+
+SiftGradient SiftGradientOf(const cv::Mat& image) {
+  SiftGradient g = AllocateSiftGradient(image.size());
+  ForEachRowStrip(image.rows, [&](int begin, int end) { SiftGradientRows(image, begin, end, &g); });
+  return g;
+}
+
+SiftGradient AllocateSiftGradient(cv::Size size) {
+  // Not zeroed: SiftGradientRows writes every value of its rows, the edges' zeros too (a
+  // memset of every gradient image cost about as much as computing the small ones).
+  return {cv::Mat(size, CV_32F), cv::Mat(size, CV_32F)};
+}
+
+void SiftGradientRows(const cv::Mat& image, int begin, int end, SiftGradient* g) {
+  CV_Assert(image.type() == CV_32FC1 && g->magnitude.size() == image.size());
+  // Rows and columns on the image's edge are zero.
+  for (const int edge : {0, image.rows - 1}) {
+    if (edge >= begin && edge < end) {
+      g->magnitude.row(edge).setTo(0);
+      g->orientation.row(edge).setTo(0);
+    }
+  }
+  begin = std::max(begin, 1);
+  end = std::min(end, image.rows - 1);
+  for (int r = begin; r < end; ++r) {
+    for (const int edge : {0, image.cols - 1}) {
+      g->magnitude.at<float>(r, edge) = 0;
+      g->orientation.at<float>(r, edge) = 0;
+    }
+  }
+  if (end <= begin || image.cols < 3) return;
+  const int w = image.cols - 2;
+  // Central differences, y pointing up (SIFT's convention), a row at a time; magnitude and
+  // angle by the same OpenCV kernels SIFT's own histograms use.
+  std::vector<float> dx(static_cast<size_t>(w)), dy(static_cast<size_t>(w));
+  for (int r = begin; r < end; ++r) {
+    const float* row = image.ptr<float>(r);
+    const float* above = image.ptr<float>(r - 1);
+    const float* below = image.ptr<float>(r + 1);
+    for (int c = 0; c < w; ++c) {
+      dx[static_cast<size_t>(c)] = row[c + 2] - row[c];
+      dy[static_cast<size_t>(c)] = above[c + 1] - below[c + 1];
+    }
+    cv::hal::magnitude32f(dx.data(), dy.data(), g->magnitude.ptr<float>(r) + 1, w);
+    cv::hal::fastAtan2(dy.data(), dx.data(), g->orientation.ptr<float>(r) + 1, w, true);
+  }
+}
+
+void DescribeSiftKeypoint(const SiftGradient& g, const cv::KeyPoint& k, float to_octave,
+                          std::vector<float>* scratch, float* out) {
   const int px = cvRound(k.pt.x * to_octave);
   const int py = cvRound(k.pt.y * to_octave);
   float angle = 360.f - k.angle;  // SIFT's keypoint angles run the other way
@@ -175,14 +230,21 @@ void Describe(const Gradient& g, const cv::KeyPoint& k, std::vector<float>* weig
   // The weight exp(-|x|^2 / (2 (kCells / 2)^2)), x in cell units, needs no rotation (a
   // rotation keeps |x|) and splits into a row and a column factor.
   const float exp_scale = -1.f / (kCells * kCells * 0.5f) / (cell * cell);
-  weight->resize(static_cast<size_t>(2 * radius + 1));
-  for (int t = -radius; t <= radius; ++t) {
-    (*weight)[static_cast<size_t>(t + radius)] = std::exp(static_cast<float>(t * t) * exp_scale);
-  }
-  const float* w = weight->data() + radius;
+  // Scratch: the weights, then per row of the window each sample's histogram entry, its
+  // three fractions and its weighted magnitude.
+  const auto span = static_cast<size_t>(2 * radius + 1);
+  scratch->resize(6 * span);
+  float* w = scratch->data() + radius;
+  for (int t = -radius; t <= radius; ++t) w[t] = std::exp(static_cast<float>(t * t) * exp_scale);
+  float* entry = scratch->data() + span;
+  float* row_frac = entry + span;
+  float* col_frac = row_frac + span;
+  float* bin_frac = col_frac + span;
+  float* weighted = bin_frac + span;
   const float centre = kCells / 2 - 0.5f;  // a sample at the centre of cell 1 counts in cell 1
   const float bins_per_degree = kBins / 360.f;
   float hist[kHistSize] = {};
+  float other[kHistSize] = {};
   for (int i = -radius; i <= radius; ++i) {
     const int r = py + i;
     if (r <= 0 || r >= rows - 1) continue;
@@ -193,20 +255,50 @@ void Describe(const Gradient& g, const cv::KeyPoint& k, std::vector<float>* weig
     int hi = std::min(radius, cols - 2 - px);
     NarrowToCells(sin_t, row_r, &lo, &hi);
     NarrowToCells(cos_t, row_c, &lo, &hi);
+    if (hi < lo) continue;
     const float* magnitude = g.magnitude.ptr<float>(r) + px;
     const float* orientation = g.orientation.ptr<float>(r) + px;
-    for (int j = lo; j <= hi; ++j) {
+    const float wi = w[i];
+    // Each sample's place, in a loop the compiler vectorises: floors by truncation of a
+    // positive shift (rbin, cbin > -1; obin > -kBins), a sample outside the cells weighted 0.
+    const int n = hi - lo + 1;
+    for (int t = 0; t < n; ++t) {
+      const int j = lo + t;
       const float rbin = static_cast<float>(j) * sin_t + row_r;
       const float cbin = static_cast<float>(j) * cos_t + row_c;
-      if (!(rbin > -1.f && rbin < kCells && cbin > -1.f && cbin < kCells)) continue;
-      AddSample(rbin, cbin, (orientation[j] - angle) * bins_per_degree, magnitude[j] * w[i] * w[j],
+      const bool inside = (rbin > -1.f) & (rbin < kCells) & (cbin > -1.f) & (cbin < kCells);
+      const float rb = inside ? rbin : 0.f;
+      const float cb = inside ? cbin : 0.f;
+      const float obin = (orientation[j] - angle) * bins_per_degree;
+      // rbin just below kCells may round up to it when shifted: kept in the last cell.
+      const int r0 = std::min(static_cast<int>(rb + 1.f) - 1, kCells - 1);
+      const int c0 = std::min(static_cast<int>(cb + 1.f) - 1, kCells - 1);
+      int o0 = static_cast<int>(obin + kBins) - kBins;
+      row_frac[t] = rb - static_cast<float>(r0);
+      col_frac[t] = cb - static_cast<float>(c0);
+      bin_frac[t] = obin - static_cast<float>(o0);
+      o0 += kBins * (static_cast<int>(o0 < 0) - static_cast<int>(o0 >= kBins));
+      entry[t] = static_cast<float>(((r0 + 1) * kHistCols + c0 + 1) * kHistBins + o0);
+      const float m = magnitude[j] * wi * w[j];  // loaded whatever `inside`: no branch
+      weighted[t] = inside ? m : 0.f;
+    }
+    // Neighbouring samples mostly share their entries: alternating between two histograms
+    // halves the chains of read-modify-writes to one address.
+    int t = 0;
+    for (; t + 1 < n; t += 2) {
+      AddSample(static_cast<int>(entry[t]), row_frac[t], col_frac[t], bin_frac[t], weighted[t],
+                hist);
+      AddSample(static_cast<int>(entry[t + 1]), row_frac[t + 1], col_frac[t + 1], bin_frac[t + 1],
+                weighted[t + 1], other);
+    }
+    if (t < n) {
+      AddSample(static_cast<int>(entry[t]), row_frac[t], col_frac[t], bin_frac[t], weighted[t],
                 hist);
     }
   }
+  for (int e = 0; e < kHistSize; ++e) hist[e] += other[e];
   Finish(hist, out);
 }
-
-}  // namespace
 
 cv::Mat DescribeSiftKeypoints(const cv::Mat& gray, const std::vector<cv::KeyPoint>& keypoints,
                               int octave_layers, double sigma) {
@@ -225,7 +317,9 @@ cv::Mat DescribeSiftKeypoints(const cv::Mat& gray, const std::vector<cv::KeyPoin
         std::vector<float> weight;
         for (int i = range.start; i < range.end; ++i) {
           const cv::KeyPoint& k = keypoints[static_cast<size_t>(i)];
-          Describe(gradients.at({OctaveOf(k), LayerOf(k)}), k, &weight, descriptors.ptr<float>(i));
+          DescribeSiftKeypoint(gradients.at({OctaveOf(k), LayerOf(k)}), k,
+                               1.f / static_cast<float>(1 << OctaveOf(k)), &weight,
+                               descriptors.ptr<float>(i));
         }
       },
       std::max(1, n / 8));

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <opencv2/features2d.hpp>
@@ -10,35 +11,14 @@
 #include <vector>
 
 #include "common/features/opencv_threads.h"
-#include "common/synthetic/tour_generator.h"
 #include "common/util/thread_pool.h"
+#include "sift_test_frames.h"
 
 namespace sceneloc {
 namespace {
 
 // A 480x270 grey frame of the generated tour (what the extractor works on).
-cv::Mat TourGray() {
-  TourOptions tour;
-  tour.num_locations = 1;
-  auto jpegs = RenderTourJpegs(tour, kTrainingPass);
-  EXPECT_TRUE(jpegs.ok());
-  const std::string& jpeg = (*jpegs)[0];
-  const cv::Mat image =
-      cv::imdecode(std::vector<uchar>(jpeg.begin(), jpeg.end()), cv::IMREAD_GRAYSCALE);
-  cv::Mat gray;
-  cv::resize(image, gray, cv::Size(480, 270), 0, 0, cv::INTER_AREA);
-  return gray;
-}
-
-double Cosine(const float* a, const float* b) {
-  double ab = 0, aa = 0, bb = 0;
-  for (int i = 0; i < 128; ++i) {
-    ab += a[i] * b[i];
-    aa += a[i] * a[i];
-    bb += b[i] * b[i];
-  }
-  return aa > 0 && bb > 0 ? ab / std::sqrt(aa * bb) : 0;
-}
+cv::Mat TourGray() { return TourGrayFrames({cv::Size(480, 270)})[0]; }
 
 // SIFT's keypoints of the frame at octave 0 and above, on their own layers, and the same at
 // twice the size on layer 0 one octave up (the extractor's context keypoints).
@@ -73,7 +53,7 @@ Agreement CompareWithOpenCv(const cv::Mat& gray, const std::vector<cv::KeyPoint>
   EXPECT_EQ(theirs.rows, ours.rows);
   Agreement a;
   for (int i = 0; i < ours.rows; ++i) {
-    const double c = Cosine(ours.ptr<float>(i), theirs.ptr<float>(i));
+    const double c = DescriptorCosine(ours.ptr<float>(i), theirs.ptr<float>(i));
     a.mean += c;
     a.share_close += c > 0.98;
     a.share_equal += cv::norm(ours.row(i), theirs.row(i), cv::NORM_INF) == 0;
@@ -122,10 +102,34 @@ TEST(SiftDescriberTest, WindowsAtTheBorderAndLargerThanTheImage) {
   cv::SIFT::create()->compute(gray, keypoints, theirs);
   ASSERT_EQ(theirs.rows, ours.rows);
   for (int i = 0; i < ours.rows; ++i) {
-    EXPECT_GT(Cosine(ours.ptr<float>(i), theirs.ptr<float>(i)), 0.999)
+    EXPECT_GT(DescriptorCosine(ours.ptr<float>(i), theirs.ptr<float>(i)), 0.999)
         << keypoints[static_cast<size_t>(i)].pt << " size "
         << keypoints[static_cast<size_t>(i)].size << " octave " << i % 4;
   }
+}
+
+// Every sub-pixel position, size and angle writes inside the histogram: a sample just inside
+// the last cell whose shifted coordinate rounds up to the cell past it once wrote beyond
+// the histogram (caught by the sanitizer build's run of this test). Values stay SIFT's.
+TEST(SiftDescriberTest, EveryPlacementStaysInsideTheHistogram) {
+  const cv::Mat gray = TourGray();
+  std::vector<cv::KeyPoint> keypoints;
+  for (int i = 0; i < 2000; ++i) {
+    const float x = 20.f + static_cast<float>(i % 97) * 4.4321f;
+    const float y = 20.f + static_cast<float>(i % 53) * 4.1234f;
+    const float size = 2.f + static_cast<float>(i % 37) * 0.7371f;
+    const float angle = std::fmod(static_cast<float>(i) * 7.919f, 360.f);
+    keypoints.emplace_back(cv::Point2f(x, y), size, angle, 0.f, ((1 + i % 3) << 8) | 0);
+  }
+  const cv::Mat ours = DescribeSiftKeypoints(gray, keypoints, 3, 1.6);
+  cv::Mat theirs;
+  cv::SIFT::create()->compute(gray, keypoints, theirs);
+  ASSERT_EQ(theirs.rows, ours.rows);
+  double lowest = 1;
+  for (int i = 0; i < ours.rows; ++i) {
+    lowest = std::min(lowest, DescriptorCosine(ours.ptr<float>(i), theirs.ptr<float>(i)));
+  }
+  EXPECT_GT(lowest, 0.999);
 }
 
 TEST(SiftDescriberTest, NoKeypointsNoRows) {
