@@ -7,6 +7,7 @@
 // another request's scoring to finish before its own can start).
 #pragma once
 
+#include <atomic>
 #include <condition_variable>
 #include <cstddef>
 #include <deque>
@@ -55,6 +56,8 @@ class ThreadPool {
   // Guarded by mutex_.
   std::deque<std::function<void()>> queue_ GUARDED_BY(mutex_);
   bool stopping_ GUARDED_BY(mutex_) = false;
+  // queue_.size(), readable without the lock: what an idle worker spins on (WorkerLoop).
+  std::atomic<size_t> queued_{0};
 };
 
 }  // namespace sceneloc

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <chrono>
 #include <new>
 #include <stdexcept>
 #include <thread>
@@ -58,6 +59,33 @@ TEST(ThreadPoolTest, UsesWorkerThreads) {
     --inside;
   });
   EXPECT_EQ(peak.load(), 2);
+}
+
+// Idle workers first poll for work, then sleep (thread_pool.cc, kSpin): a task scheduled
+// at any moment of that, just after the last, while they poll or long after they sleep,
+// runs on a worker; and a pool destroyed while its workers poll joins them.
+TEST(ThreadPoolTest, TasksReachWorkersWhetherTheyPollOrSleep) {
+  ThreadPool pool(2);
+  const std::thread::id caller = std::this_thread::get_id();
+  for (const int gap_us : {0, 5, 20, 45, 60, 200, 3000}) {
+    for (int round = 0; round < 5; ++round) {
+      std::this_thread::sleep_for(std::chrono::microseconds(gap_us));
+      std::atomic<bool> ran{false};
+      std::atomic<bool> on_worker{false};
+      pool.Schedule([&] {
+        on_worker = std::this_thread::get_id() != caller;
+        ran = true;
+      });
+      while (!ran.load()) std::this_thread::yield();
+      EXPECT_TRUE(on_worker.load()) << gap_us;
+    }
+  }
+  for (int i = 0; i < 20; ++i) {
+    ThreadPool short_lived(3);
+    std::atomic<int> sum{0};
+    short_lived.ParallelFor(6, 1, [&](size_t b, size_t e) { sum += static_cast<int>(e - b); });
+    EXPECT_EQ(sum.load(), 6);
+  }
 }
 
 }  // namespace
