@@ -67,6 +67,12 @@ nlohmann::json Percentiles(const std::vector<double>& values) {
           {"max", Quantile(values, 1.0)}};
 }
 
+nlohmann::json StagePercentiles(const LoadResult& r) {
+  nlohmann::json stages = nlohmann::json::object();
+  for (const auto& [stage, values] : r.stage_ms) stages[stage] = Percentiles(values);
+  return stages;
+}
+
 nlohmann::json ToJson(const BenchArgs& args, const LoadResult& r) {
   nlohmann::json versions = nlohmann::json::array(), checksums = nlohmann::json::object();
   for (const auto& [generation, checksum] : r.map_versions) {
@@ -86,6 +92,7 @@ nlohmann::json ToJson(const BenchArgs& args, const LoadResult& r) {
           {"map", args.map},
           {"latency_ms", Percentiles(r.latency_ms)},
           {"server_ms", Percentiles(r.server_ms)},
+          {"server_stage_ms", StagePercentiles(r)},
           {"errors", r.errors},
           {"retries", r.retries},
           {"sessions", args.sessions},
@@ -105,6 +112,16 @@ void PrintSummary(const BenchArgs& args, const LoadResult& r) {
               Quantile(r.latency_ms, 0.99), Quantile(r.latency_ms, 1.0));
   std::printf("server ms   p50 %.2f  p90 %.2f  p99 %.2f\n", Quantile(r.server_ms, 0.5),
               Quantile(r.server_ms, 0.9), Quantile(r.server_ms, 0.99));
+  if (!r.stage_ms.empty()) {
+    // In the order a request passes them; each median on its own (they do not add up).
+    std::printf("server p50  ");
+    for (const char* stage : {"queue", "decode", "extract", "descriptor", "neighbourhood",
+                              "likelihood", "holistic", "verify"}) {
+      const auto it = r.stage_ms.find(stage);
+      if (it != r.stage_ms.end()) std::printf(" %s %.2f", stage, Quantile(it->second, 0.5));
+    }
+    std::printf("  (ms, per stage)\n");
+  }
   if (args.sessions) {
     std::printf("sessions    one per client, in folder order: %lld of %lld answers LOCALISED\n",
                 static_cast<long long>(r.session_localised), static_cast<long long>(r.ok));

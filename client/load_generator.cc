@@ -5,6 +5,7 @@
 #include <cmath>
 #include <memory>
 #include <thread>
+#include <utility>
 
 #include "client/client.h"
 #include "proto/wire.h"
@@ -39,7 +40,18 @@ void Record(const StatusOr<v1::Reply>& reply, double ms, ClientTally* tally) {
   }
   ++r.ok;
   r.latency_ms.push_back(ms);
-  r.server_ms.push_back(reply->localise().timings().total_ms());
+  const v1::Timings& t = reply->localise().timings();
+  r.server_ms.push_back(t.total_ms());
+  for (const auto& [stage, value] : {std::pair{"queue", t.queue_ms()},
+                                     {"decode", t.decode_ms()},
+                                     {"extract", t.extract_ms()},
+                                     {"descriptor", t.descriptor_ms()},
+                                     {"neighbourhood", t.neighbourhood_ms()},
+                                     {"likelihood", t.likelihood_ms()},
+                                     {"holistic", t.holistic_ms()},
+                                     {"verify", t.verify_ms()}}) {
+    r.stage_ms[stage].push_back(value);
+  }
   if (reply->localise().has_session() && reply->localise().session().decision() == v1::LOCALISED) {
     ++r.session_localised;
   }
@@ -87,6 +99,10 @@ void Merge(const LoadResult& from, LoadResult* into) {
   into->retries += from.retries;
   into->latency_ms.insert(into->latency_ms.end(), from.latency_ms.begin(), from.latency_ms.end());
   into->server_ms.insert(into->server_ms.end(), from.server_ms.begin(), from.server_ms.end());
+  for (const auto& [stage, values] : from.stage_ms) {
+    std::vector<double>& to = into->stage_ms[stage];
+    to.insert(to.end(), values.begin(), values.end());
+  }
   for (const auto& [kind, n] : from.errors) into->errors[kind] += n;
   for (const auto& [generation, checksum] : from.map_versions) {
     into->map_versions[generation] = checksum;

@@ -73,6 +73,9 @@ struct LoadResult {
   std::vector<double> latency_ms;
   // Server-side total_ms (received by the server to reply built) of successful requests.
   std::vector<double> server_ms;
+  // The server's stage times of successful requests (Timings: queue, decode, extract,
+  // descriptor, neighbourhood, likelihood, holistic, verify), by stage name, unsorted.
+  std::map<std::string, std::vector<double>> stage_ms;
   // Failed requests by kind: the reply's status name (NOT_FOUND, OVERLOADED, ...), or
   // NO_REPLY (timed out / no connection) and BAD_REPLY (unparsable or wrong kind).
   std::map<std::string, int64_t> errors;

@@ -134,6 +134,17 @@ TEST_F(BenchCommandTest, WritesTheDocumentedJson) {
   EXPECT_LE(latency["p90"].get<double>(), latency["p99"].get<double>());
   EXPECT_LE(latency["p99"].get<double>(), latency["max"].get<double>());
   EXPECT_LE(j["server_ms"]["p50"].get<double>(), latency["max"].get<double>());
+  // The server's stages, each no longer than the whole: JPEGs are decoded and extracted.
+  const nlohmann::json& stages = j["server_stage_ms"];
+  for (const char* stage : {"queue", "decode", "extract", "descriptor", "neighbourhood",
+                            "likelihood", "holistic", "verify"}) {
+    ASSERT_TRUE(stages.contains(stage)) << stage << " " << j.dump();
+    EXPECT_LE(stages[stage]["p50"].get<double>(), stages[stage]["max"].get<double>()) << stage;
+    EXPECT_LE(stages[stage]["max"].get<double>(), j["server_ms"]["max"].get<double>()) << stage;
+  }
+  EXPECT_GT(stages["decode"]["p50"].get<double>(), 0);
+  EXPECT_GT(stages["extract"]["p50"].get<double>(), 0);
+  EXPECT_NE(run.out.find("server p50   queue "), std::string::npos) << run.out;
   ASSERT_EQ(j["map_versions"].size(), 1u);
   const std::string generation = std::to_string(j["map_versions"][0].get<uint64_t>());
   ASSERT_TRUE(j["map_checksums"].contains(generation)) << j.dump();
