@@ -38,7 +38,7 @@ fi
 bench() {
   local name=$1 clients=$2; shift 2
   "$client" bench --server "$endpoint" --map gp --clients "$clients" --duration "$seconds" \
-    --json "$out/$name.json" "$@" "$data/day_right" | grep -E '^(throughput|latency)' |
+    --json "$out/$name.json" "$@" "$data/day_right" | grep -E '^(throughput|latency|server p50)' |
     sed "s/^/[$label $name] /"
 }
 
