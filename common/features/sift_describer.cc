@@ -9,6 +9,10 @@
 #include <opencv2/imgproc.hpp>
 #include <utility>
 
+#if defined(__SSE__)
+#include <immintrin.h>
+#endif
+
 namespace sceneloc {
 namespace {
 
@@ -83,26 +87,155 @@ void NarrowToCells(float a, float b, int* lo, int* hi) {
   *hi = std::min(*hi, static_cast<int>(hi_f));
 }
 
-// Spreads one sample of weighted magnitude m at histogram entry `at` (the cell row, cell
-// column and bin below the sample's, margins included) over the 8 neighbouring (cell row,
-// cell column, bin) entries, each by its trilinear share (fractions fr, fc, fo).
-void AddSample(int at, float fr, float fc, float fo, float m, float* hist) {
-  float* h = hist + at;
+// One row of a descriptor's window, placed: for each sample its histogram entry (the cell
+// row, cell column and bin below the sample's, margins included, as a float) and its
+// weighted magnitude's trilinear shares of the 8 entries around it: for each of the 4
+// cells (kCellOffsets), the share of the bin below and of the one above, side by side
+// (sample t's at pair[q][2t], pair[q][2t + 1]) as the histogram holds them.
+constexpr int kCorners = 4;
+constexpr int kDown = kHistCols * kHistBins;  // one cell row further
+constexpr int kCellOffsets[kCorners] = {0, kHistBins, kDown, kDown + kHistBins};
+struct PlacedRow {
+  float* entry;
+  float* pair[kCorners];
+};
+
+// What places the samples of one window row: sample j (a column offset from the keypoint)
+// lies at cell coordinates (j sin_t + row_r, j cos_t + row_c).
+struct WindowRow {
+  float sin_t, cos_t, row_r, row_c;
+  float angle, bins_per_degree;
+  float wi;                // the row's Gaussian weight factor
+  const float* w;          // the column's, by j
+  const float* magnitude;  // the row's gradients, by j
+  const float* orientation;
+};
+
+// The shares of m at trilinear fractions (fr, fc, fo), in kShareOffsets' order.
+inline void Shares(float m, float fr, float fc, float fo, const PlacedRow& out, int t) {
   const float r1 = m * fr;
   const float r0w = m - r1;
   const float rc11 = r1 * fc;
   const float rc10 = r1 - rc11;
   const float rc01 = r0w * fc;
   const float rc00 = r0w - rc01;
-  const int down = kHistCols * kHistBins;
-  h[0] += rc00 - rc00 * fo;
-  h[1] += rc00 * fo;
-  h[kHistBins] += rc01 - rc01 * fo;
-  h[kHistBins + 1] += rc01 * fo;
-  h[down] += rc10 - rc10 * fo;
-  h[down + 1] += rc10 * fo;
-  h[down + kHistBins] += rc11 - rc11 * fo;
-  h[down + kHistBins + 1] += rc11 * fo;
+  const float corner[kCorners] = {rc00, rc01, rc10, rc11};
+  for (int q = 0; q < kCorners; ++q) {
+    out.pair[q][2 * t] = corner[q] - corner[q] * fo;
+    out.pair[q][2 * t + 1] = corner[q] * fo;
+  }
+}
+
+// Places sample j as the t-th of the row: floors by truncation of a positive shift (rbin,
+// cbin > -1; obin > -kBins), a sample outside the cells weighted 0.
+inline void PlaceSample(const WindowRow& row, int j, int t, const PlacedRow& out) {
+  const float rbin = static_cast<float>(j) * row.sin_t + row.row_r;
+  const float cbin = static_cast<float>(j) * row.cos_t + row.row_c;
+  const bool inside = (rbin > -1.f) & (rbin < kCells) & (cbin > -1.f) & (cbin < kCells);
+  const float rb = inside ? rbin : 0.f;
+  const float cb = inside ? cbin : 0.f;
+  const float obin = (row.orientation[j] - row.angle) * row.bins_per_degree;
+  // rbin just below kCells may round up to it when shifted: kept in the last cell.
+  const int r0 = std::min(static_cast<int>(rb + 1.f) - 1, kCells - 1);
+  const int c0 = std::min(static_cast<int>(cb + 1.f) - 1, kCells - 1);
+  int o0 = static_cast<int>(obin + kBins) - kBins;
+  const float fr = rb - static_cast<float>(r0);
+  const float fc = cb - static_cast<float>(c0);
+  const float fo = obin - static_cast<float>(o0);
+  o0 += kBins * (static_cast<int>(o0 < 0) - static_cast<int>(o0 >= kBins));
+  out.entry[t] = static_cast<float>(((r0 + 1) * kHistCols + c0 + 1) * kHistBins + o0);
+  const float m = row.magnitude[j] * row.wi * row.w[j];  // loaded whatever `inside`: no branch
+  Shares(inside ? m : 0.f, fr, fc, fo, out, t);
+}
+
+// Places samples lo to lo + n - 1 of the row as t = 0 to n - 1. With AVX2 eight at a time,
+// each lane computed as PlaceSample computes it, operation for operation (the compiler left
+// PlaceSample's loop scalar: it is most of a descriptor's time).
+void PlaceRow(const WindowRow& row, int lo, int n, const PlacedRow& out) {
+  int t = 0;
+#if defined(__AVX2__)
+  const __m256 sin_t = _mm256_set1_ps(row.sin_t), cos_t = _mm256_set1_ps(row.cos_t);
+  const __m256 row_r = _mm256_set1_ps(row.row_r), row_c = _mm256_set1_ps(row.row_c);
+  const __m256 angle = _mm256_set1_ps(row.angle);
+  const __m256 bins_per_degree = _mm256_set1_ps(row.bins_per_degree);
+  const __m256 wi = _mm256_set1_ps(row.wi);
+  const __m256 minus_one = _mm256_set1_ps(-1.f), one = _mm256_set1_ps(1.f);
+  const __m256 cells = _mm256_set1_ps(static_cast<float>(kCells));
+  const __m256 bins = _mm256_set1_ps(static_cast<float>(kBins));
+  const __m256i i_one = _mm256_set1_epi32(1), i_last = _mm256_set1_epi32(kCells - 1);
+  const __m256i i_bins = _mm256_set1_epi32(kBins), i_top_bin = _mm256_set1_epi32(kBins - 1);
+  const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  for (; t + 8 <= n; t += 8) {
+    const int j = lo + t;
+    const __m256 jf = _mm256_cvtepi32_ps(_mm256_add_epi32(_mm256_set1_epi32(j), lanes));
+    const __m256 rbin = _mm256_add_ps(_mm256_mul_ps(jf, sin_t), row_r);
+    const __m256 cbin = _mm256_add_ps(_mm256_mul_ps(jf, cos_t), row_c);
+    const __m256 inside = _mm256_and_ps(_mm256_and_ps(_mm256_cmp_ps(rbin, minus_one, _CMP_GT_OQ),
+                                                      _mm256_cmp_ps(rbin, cells, _CMP_LT_OQ)),
+                                        _mm256_and_ps(_mm256_cmp_ps(cbin, minus_one, _CMP_GT_OQ),
+                                                      _mm256_cmp_ps(cbin, cells, _CMP_LT_OQ)));
+    const __m256 rb = _mm256_and_ps(inside, rbin);
+    const __m256 cb = _mm256_and_ps(inside, cbin);
+    const __m256 obin =
+        _mm256_mul_ps(_mm256_sub_ps(_mm256_loadu_ps(row.orientation + j), angle), bins_per_degree);
+    const __m256i r0 = _mm256_min_epi32(
+        _mm256_sub_epi32(_mm256_cvttps_epi32(_mm256_add_ps(rb, one)), i_one), i_last);
+    const __m256i c0 = _mm256_min_epi32(
+        _mm256_sub_epi32(_mm256_cvttps_epi32(_mm256_add_ps(cb, one)), i_one), i_last);
+    __m256i o0 = _mm256_sub_epi32(_mm256_cvttps_epi32(_mm256_add_ps(obin, bins)), i_bins);
+    const __m256 fr = _mm256_sub_ps(rb, _mm256_cvtepi32_ps(r0));
+    const __m256 fc = _mm256_sub_ps(cb, _mm256_cvtepi32_ps(c0));
+    const __m256 fo = _mm256_sub_ps(obin, _mm256_cvtepi32_ps(o0));
+    o0 = _mm256_add_epi32(o0,
+                          _mm256_and_si256(_mm256_cmpgt_epi32(_mm256_setzero_si256(), o0), i_bins));
+    o0 = _mm256_sub_epi32(o0, _mm256_and_si256(_mm256_cmpgt_epi32(o0, i_top_bin), i_bins));
+    const __m256i cell = _mm256_add_epi32(
+        _mm256_mullo_epi32(_mm256_add_epi32(r0, i_one), _mm256_set1_epi32(kHistCols)),
+        _mm256_add_epi32(c0, i_one));
+    const __m256i entry =
+        _mm256_add_epi32(_mm256_mullo_epi32(cell, _mm256_set1_epi32(kHistBins)), o0);
+    _mm256_storeu_ps(out.entry + t, _mm256_cvtepi32_ps(entry));
+    const __m256 m =
+        _mm256_and_ps(inside, _mm256_mul_ps(_mm256_mul_ps(_mm256_loadu_ps(row.magnitude + j), wi),
+                                            _mm256_loadu_ps(row.w + j)));
+    const __m256 r1 = _mm256_mul_ps(m, fr);
+    const __m256 r0w = _mm256_sub_ps(m, r1);
+    const __m256 rc11 = _mm256_mul_ps(r1, fc);
+    const __m256 rc10 = _mm256_sub_ps(r1, rc11);
+    const __m256 rc01 = _mm256_mul_ps(r0w, fc);
+    const __m256 rc00 = _mm256_sub_ps(r0w, rc01);
+    const __m256 corner[kCorners] = {rc00, rc01, rc10, rc11};
+    for (int q = 0; q < kCorners; ++q) {
+      const __m256 upper = _mm256_mul_ps(corner[q], fo);
+      const __m256 lower = _mm256_sub_ps(corner[q], upper);
+      // Interleaved: samples 0-1 and 4-5 of each, 2-3 and 6-7; then in sample order.
+      const __m256 low = _mm256_unpacklo_ps(lower, upper);
+      const __m256 high = _mm256_unpackhi_ps(lower, upper);
+      _mm256_storeu_ps(out.pair[q] + 2 * t, _mm256_permute2f128_ps(low, high, 0x20));
+      _mm256_storeu_ps(out.pair[q] + 2 * t + 8, _mm256_permute2f128_ps(low, high, 0x31));
+    }
+  }
+#endif
+  for (; t < n; ++t) PlaceSample(row, lo + t, t, out);
+}
+
+// Adds the placed sample t to `hist`: a pair of neighbouring bins at a time.
+inline void AddPlaced(const PlacedRow& row, int t, float* hist) {
+  float* h = hist + static_cast<int>(row.entry[t]);
+  for (int q = 0; q < kCorners; ++q) {
+    float* bins = h + kCellOffsets[q];
+    const float* shares = row.pair[q] + 2 * t;
+#if defined(__SSE__)
+    // __m64 may alias floats.
+    const __m128 sum =
+        _mm_add_ps(_mm_loadl_pi(_mm_setzero_ps(), reinterpret_cast<__m64*>(bins)),
+                   _mm_loadl_pi(_mm_setzero_ps(), reinterpret_cast<const __m64*>(shares)));
+    _mm_storel_pi(reinterpret_cast<__m64*>(bins), sum);
+#else
+    bins[0] += shares[0];
+    bins[1] += shares[1];
+#endif
+  }
 }
 
 // The 128 values of a filled histogram: orientation margins folded round, normalised,
@@ -230,71 +363,47 @@ void DescribeSiftKeypoint(const SiftGradient& g, const cv::KeyPoint& k, float to
   // The weight exp(-|x|^2 / (2 (kCells / 2)^2)), x in cell units, needs no rotation (a
   // rotation keeps |x|) and splits into a row and a column factor.
   const float exp_scale = -1.f / (kCells * kCells * 0.5f) / (cell * cell);
-  // Scratch: the weights, then per row of the window each sample's histogram entry, its
-  // three fractions and its weighted magnitude.
+  // Scratch: the weights, then per row of the window each sample's placement.
   const auto span = static_cast<size_t>(2 * radius + 1);
-  scratch->resize(6 * span);
+  scratch->resize((2 + 2 * kCorners) * span);
   float* w = scratch->data() + radius;
   for (int t = -radius; t <= radius; ++t) w[t] = std::exp(static_cast<float>(t * t) * exp_scale);
-  float* entry = scratch->data() + span;
-  float* row_frac = entry + span;
-  float* col_frac = row_frac + span;
-  float* bin_frac = col_frac + span;
-  float* weighted = bin_frac + span;
+  PlacedRow placed;
+  placed.entry = scratch->data() + span;
+  for (int q = 0; q < kCorners; ++q) placed.pair[q] = placed.entry + (2 * q + 1) * span;
   const float centre = kCells / 2 - 0.5f;  // a sample at the centre of cell 1 counts in cell 1
-  const float bins_per_degree = kBins / 360.f;
+  WindowRow row;
+  row.sin_t = sin_t;
+  row.cos_t = cos_t;
+  row.angle = angle;
+  row.bins_per_degree = kBins / 360.f;
+  row.w = w;
   float hist[kHistSize] = {};
   float other[kHistSize] = {};
   for (int i = -radius; i <= radius; ++i) {
     const int r = py + i;
     if (r <= 0 || r >= rows - 1) continue;
     // rbin = j sin_t + row_r, cbin = j cos_t + row_c: the sample's cell coordinates.
-    const float row_r = static_cast<float>(i) * cos_t + centre;
-    const float row_c = -static_cast<float>(i) * sin_t + centre;
+    row.row_r = static_cast<float>(i) * cos_t + centre;
+    row.row_c = -static_cast<float>(i) * sin_t + centre;
     int lo = std::max(-radius, 1 - px);
     int hi = std::min(radius, cols - 2 - px);
-    NarrowToCells(sin_t, row_r, &lo, &hi);
-    NarrowToCells(cos_t, row_c, &lo, &hi);
+    NarrowToCells(sin_t, row.row_r, &lo, &hi);
+    NarrowToCells(cos_t, row.row_c, &lo, &hi);
     if (hi < lo) continue;
-    const float* magnitude = g.magnitude.ptr<float>(r) + px;
-    const float* orientation = g.orientation.ptr<float>(r) + px;
-    const float wi = w[i];
-    // Each sample's place, in a loop the compiler vectorises: floors by truncation of a
-    // positive shift (rbin, cbin > -1; obin > -kBins), a sample outside the cells weighted 0.
+    row.magnitude = g.magnitude.ptr<float>(r) + px;
+    row.orientation = g.orientation.ptr<float>(r) + px;
+    row.wi = w[i];
     const int n = hi - lo + 1;
-    for (int t = 0; t < n; ++t) {
-      const int j = lo + t;
-      const float rbin = static_cast<float>(j) * sin_t + row_r;
-      const float cbin = static_cast<float>(j) * cos_t + row_c;
-      const bool inside = (rbin > -1.f) & (rbin < kCells) & (cbin > -1.f) & (cbin < kCells);
-      const float rb = inside ? rbin : 0.f;
-      const float cb = inside ? cbin : 0.f;
-      const float obin = (orientation[j] - angle) * bins_per_degree;
-      // rbin just below kCells may round up to it when shifted: kept in the last cell.
-      const int r0 = std::min(static_cast<int>(rb + 1.f) - 1, kCells - 1);
-      const int c0 = std::min(static_cast<int>(cb + 1.f) - 1, kCells - 1);
-      int o0 = static_cast<int>(obin + kBins) - kBins;
-      row_frac[t] = rb - static_cast<float>(r0);
-      col_frac[t] = cb - static_cast<float>(c0);
-      bin_frac[t] = obin - static_cast<float>(o0);
-      o0 += kBins * (static_cast<int>(o0 < 0) - static_cast<int>(o0 >= kBins));
-      entry[t] = static_cast<float>(((r0 + 1) * kHistCols + c0 + 1) * kHistBins + o0);
-      const float m = magnitude[j] * wi * w[j];  // loaded whatever `inside`: no branch
-      weighted[t] = inside ? m : 0.f;
-    }
+    PlaceRow(row, lo, n, placed);
     // Neighbouring samples mostly share their entries: alternating between two histograms
     // halves the chains of read-modify-writes to one address.
     int t = 0;
     for (; t + 1 < n; t += 2) {
-      AddSample(static_cast<int>(entry[t]), row_frac[t], col_frac[t], bin_frac[t], weighted[t],
-                hist);
-      AddSample(static_cast<int>(entry[t + 1]), row_frac[t + 1], col_frac[t + 1], bin_frac[t + 1],
-                weighted[t + 1], other);
+      AddPlaced(placed, t, hist);
+      AddPlaced(placed, t + 1, other);
     }
-    if (t < n) {
-      AddSample(static_cast<int>(entry[t]), row_frac[t], col_frac[t], bin_frac[t], weighted[t],
-                hist);
-    }
+    if (t < n) AddPlaced(placed, t, hist);
   }
   for (int e = 0; e < kHistSize; ++e) hist[e] += other[e];
   Finish(hist, out);
