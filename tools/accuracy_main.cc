@@ -223,9 +223,39 @@ int RunAblation(const std::vector<sl::SuiteSet>& sets, const sl::SuiteSettings& 
   return 0;
 }
 
+// Confidence rows of ours and the baselines' (vote share) for one summary.
+void PrintConfidenceRows(const std::string& label, const std::vector<Row>& rows,
+                         const std::string& negatives) {
+  bool first = true;
+  for (const Row& row : rows) {
+    if (row.method == "paper") continue;
+    const sl::ConfidenceMetrics& c = row.summary->confidence;
+    std::printf("%-16s %-16s %7.3f %7.2f %6.3f (%.3f) %9.2f %9.2f %12s\n",
+                first ? label.c_str() : "", row.method.c_str(), c.pr_auc, c.recall_at_100_precision,
+                c.ece, c.ece_floor, c.correct_accepted, c.accepted_precision,
+                first ? negatives.c_str() : "");
+    first = false;
+  }
+}
+
+struct PooledSummaries {
+  sl::EvalSummary real;  // the sets whose query frames are used as they are
+  sl::EvalSummary all;
+};
+
+PooledSummaries PoolSets(const std::vector<sl::SetResult>& results, const sl::Judging& judging) {
+  return {sl::PooledSummary(results, /*unchanged_only=*/true, judging),
+          sl::PooledSummary(results, /*unchanged_only=*/false, judging)};
+}
+
+std::vector<Row> SummaryRows(const sl::EvalSummary& s) {
+  return {{"sceneloc", &s.ours}, {"baseline", &s.baseline}, {"baseline+ransac", &s.reranked}};
+}
+
 // The confidence of every set: ours and the baselines' (vote share), with our out-of-map
-// frames.
-void PrintConfidenceTable(const std::vector<sl::SetResult>& results, double threshold) {
+// frames; then the sets pooled.
+void PrintConfidenceTable(const std::vector<sl::SetResult>& results, const PooledSummaries& pooled,
+                          double threshold) {
   std::printf(
       "\nconfidence: correct = within the map's tolerance; accepted = sceneloc's confidence >= "
       "%.2f; baselines score by vote (or inlier) share\n",
@@ -233,21 +263,16 @@ void PrintConfidenceTable(const std::vector<sl::SetResult>& results, double thre
   std::printf("%-16s %-16s %7s %7s %14s %9s %9s %12s\n", "set", "method", "PR-AUC", "R@100P",
               "ECE (floor)", "accepted", "precision", "out-of-map");
   for (const sl::SetResult& r : results) {
-    bool first = true;
-    for (const Row& row : Rows(r)) {
-      if (row.method == "paper") continue;
-      const sl::ConfidenceMetrics& c = row.summary->confidence;
-      std::string negatives = "";
-      if (first && r.negatives > 0) {
-        negatives = std::to_string(r.negatives_accepted) + "/" + std::to_string(r.negatives);
-      }
-      std::printf("%-16s %-16s %7.3f %7.2f %6.3f (%.3f) %9.2f %9.2f %12s\n",
-                  first ? r.set.name.c_str() : "", row.method.c_str(), c.pr_auc,
-                  c.recall_at_100_precision, c.ece, c.ece_floor, c.correct_accepted,
-                  c.accepted_precision, negatives.c_str());
-      first = false;
+    std::string negatives = "";
+    if (r.negatives > 0) {
+      negatives = std::to_string(r.negatives_accepted) + "/" + std::to_string(r.negatives);
     }
+    PrintConfidenceRows(r.set.name, Rows(r), negatives);
   }
+  PrintConfidenceRows("pooled: real " + std::to_string(pooled.real.queries),
+                      SummaryRows(pooled.real), "");
+  PrintConfidenceRows("pooled: all " + std::to_string(pooled.all.queries), SummaryRows(pooled.all),
+                      "");
 }
 
 std::string Hostname() {
@@ -363,7 +388,16 @@ int RunSuite(const Args& a, const sl::SuiteSettings& settings,
     panels.push_back({set.name + ": sceneloc", result->summary.ours.confidence});
     results.push_back(std::move(result).value());
   }
-  PrintConfidenceTable(results, settings.match.min_confidence);
+  const PooledSummaries pooled =
+      PoolSets(results, {settings.train.tolerance, settings.match.min_confidence});
+  PrintConfidenceTable(results, pooled, settings.match.min_confidence);
+  for (const auto& [name, summary] :
+       {std::pair<std::string, const sl::EvalSummary*>{"real", &pooled.real},
+        {"all", &pooled.all}}) {
+    nlohmann::json methods;
+    for (const Row& row : SummaryRows(*summary)) methods[row.method] = MethodJson(*row.summary);
+    json["pooled"][name] = {{"queries", summary->queries}, {"methods", methods}};
+  }
   PrintWalks(results);
   if (sl::Status w = sl::WriteReliabilityDiagram(panels, a.out_dir + "/reliability.png"); !w.ok()) {
     return Fail(w.message());

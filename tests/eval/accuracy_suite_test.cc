@@ -11,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 #include <set>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "common/config/config.h"
@@ -22,6 +23,55 @@ namespace sceneloc {
 namespace {
 
 namespace fs = std::filesystem;
+
+// A set of hand-made outcomes: (truth, our answer, our confidence) per query; the baselines
+// answer each query one frame off.
+SetResult HandMadeSet(QueryChange change, const std::vector<std::tuple<int, int, float>>& queries) {
+  SetResult r;
+  r.set.change = change;
+  for (const auto& [truth, predicted, confidence] : queries) {
+    QueryOutcome o;
+    o.truth = truth;
+    o.ours.predicted = predicted;
+    o.ours.confidence = confidence;
+    o.baseline.predicted = truth + 1;
+    o.baseline.confidence = 0.5f;
+    o.reranked = o.baseline;
+    r.outcomes.push_back(o);
+  }
+  return r;
+}
+
+// Pooling keeps each query with its own set's truth, leaves out changed sets when asked, and
+// of one set gives that set's own summary.
+TEST(AccuracySuiteTest, PooledSummaryJudgesEachQueryAgainstItsOwnSet) {
+  const SetResult real = HandMadeSet(
+      QueryChange::kNone, {{10, 10, 0.9f}, {20, 21, 0.8f}, {30, 50, 0.3f}, {40, 40, 0.7f}});
+  // The same truths' answers would be wrong against the first set's.
+  const SetResult darker = HandMadeSet(QueryChange::kDarker, {{5, 5, 0.6f}, {7, 90, 0.4f}});
+  const Judging judging{2, 0.5};
+
+  const EvalSummary unchanged = PooledSummary({real, darker}, /*unchanged_only=*/true, judging);
+  EXPECT_EQ(unchanged.queries, 4u);
+  EXPECT_DOUBLE_EQ(unchanged.ours.match_rate[2], 0.75);
+  EXPECT_DOUBLE_EQ(unchanged.ours.match_rate[0], 0.5);
+  EXPECT_EQ(unchanged.ours.confidence.queries, 4);
+  EXPECT_DOUBLE_EQ(unchanged.ours.confidence.correct_accepted, 1.0);  // 3 of 3 right accepted
+  EXPECT_DOUBLE_EQ(unchanged.baseline.match_rate[0], 0.0);
+  EXPECT_DOUBLE_EQ(unchanged.baseline.match_rate[1], 1.0);
+
+  const EvalSummary all = PooledSummary({real, darker}, /*unchanged_only=*/false, judging);
+  EXPECT_EQ(all.queries, 6u);
+  EXPECT_DOUBLE_EQ(all.ours.match_rate[2], 4.0 / 6);
+  EXPECT_EQ(all.ours.confidence.queries, 6);
+  EXPECT_DOUBLE_EQ(all.ours.confidence.accepted_precision, 1.0);  // .9 .8 .7 .6, all right
+
+  const EvalSummary one = PooledSummary({real}, /*unchanged_only=*/false, judging);
+  const EvalSummary own = Summarise(real.outcomes, /*with_baseline=*/true, judging);
+  EXPECT_DOUBLE_EQ(one.ours.confidence.pr_auc, own.ours.confidence.pr_auc);
+  EXPECT_DOUBLE_EQ(one.ours.confidence.ece, own.ours.confidence.ece);
+  EXPECT_EQ(PooledSummary({}, false, judging).queries, 0u);
+}
 
 // Each change has its own name, as the reports print it.
 TEST(AccuracySuiteTest, QueryChangesHaveTheirNames) {

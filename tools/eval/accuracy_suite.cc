@@ -325,6 +325,16 @@ Status RunNegatives(const SuiteSet& set, const Map& map, const MatchOptions& mat
   return Status::Ok();
 }
 
+EvalSummary PooledSummary(const std::vector<SetResult>& results, bool unchanged_only,
+                          const Judging& judging) {
+  std::vector<QueryOutcome> pooled;
+  for (const SetResult& r : results) {
+    if (unchanged_only && r.set.change != QueryChange::kNone) continue;
+    pooled.insert(pooled.end(), r.outcomes.begin(), r.outcomes.end());
+  }
+  return Summarise(pooled, /*with_baseline=*/true, judging);
+}
+
 StatusOr<SetResult> RunSet(const SuiteSet& set, const SuiteSettings& settings,
                            const SuiteContext& context) {
   SetResult result;
