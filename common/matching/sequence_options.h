@@ -15,7 +15,7 @@ struct SequenceOptions {
   int max_backward = -1;
   // Per frame, the probability that the robot's speed changes by half a location per frame
   // (faster or slower; through 0 it turns round): robots keep their pace and direction.
-  double speed_change = 0.1;
+  double speed_change = 0.05;
   // The kidnap floor: per frame, this share of the in-map mass is spread over every
   // location, so a robot carried elsewhere is found again within a few frames.
   double jump = 0.03;

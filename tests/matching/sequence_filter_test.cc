@@ -206,7 +206,11 @@ TEST_F(SequenceFilterTest, WalkingBackwards) {
 // (backs up, say), with evidence that alone is often wrong: the session follows it down
 // within a few frames of the turn and stays on it. (Before the direction of travel was
 // state, a band with backward steps at every frame lagged a walk down the route and lost
-// it to the look-alikes.)
+// it to the look-alikes.) The turn here is instant, from one location a frame up to one
+// down: the speed must pass four half-location changes, which a robot keeping its pace
+// (speed_change 0.05) makes reluctantly, so for a few frames the answer lags the turn by up
+// to three locations, never sure of it: no wrong answer is LOCALISED, and from the sixth
+// frame on at most one is wrong.
 TEST_F(SequenceFilterTest, TurnsRoundAndWalksBack) {
   options_.max_forward = 2;
   options_.max_backward = 2;
@@ -217,7 +221,9 @@ TEST_F(SequenceFilterTest, TurnsRoundAndWalksBack) {
   for (int t = 0; t < 40; ++t) {
     const int where = 79 - t;  // down one location per frame
     const SequenceAnswer a = filter.Update(Frame(where, 1.5, t % 3 == 2 ? 150 : -1), &state);
-    if (t >= 4) wrong += std::abs(a.location - where) > 2 ? 1 : 0;
+    const bool right = std::abs(a.location - where) <= 2;
+    EXPECT_TRUE(right || a.decision == Decision::kUnknown) << "frame " << t << ": " << a.location;
+    if (t >= 6) wrong += right ? 0 : 1;
   }
   EXPECT_LE(wrong, 1);
 }
