@@ -92,6 +92,7 @@ nlohmann::json ToJson(const BenchArgs& args, const LoadResult& r) {
           {"map", args.map},
           {"latency_ms", Percentiles(r.latency_ms)},
           {"server_ms", Percentiles(r.server_ms)},
+          {"outside_ms", Percentiles(r.outside_ms)},
           {"server_stage_ms", StagePercentiles(r)},
           {"errors", r.errors},
           {"retries", r.retries},
@@ -112,6 +113,10 @@ void PrintSummary(const BenchArgs& args, const LoadResult& r) {
               Quantile(r.latency_ms, 0.99), Quantile(r.latency_ms, 1.0));
   std::printf("server ms   p50 %.2f  p90 %.2f  p99 %.2f\n", Quantile(r.server_ms, 0.5),
               Quantile(r.server_ms, 0.9), Quantile(r.server_ms, 0.99));
+  std::printf(
+      "outside ms  p50 %.3f  p90 %.3f  p99 %.3f  (each request's latency less its server "
+      "time: network, broker, client)\n",
+      Quantile(r.outside_ms, 0.5), Quantile(r.outside_ms, 0.9), Quantile(r.outside_ms, 0.99));
   if (!r.stage_ms.empty()) {
     // In the order a request passes them; each median on its own (they do not add up).
     std::printf("server p50  ");

@@ -6,6 +6,7 @@
 //    "duration_s": x, "mode": "jpeg"|"features",
 //    "latency_ms": {"p50": t, "p90": t, "p99": t, "max": t},      // successful requests
 //    "server_ms": {"p50": t, "p90": t, "p99": t, "max": t},       // inside the server
+//    "outside_ms": {...},  // per request, latency less server time: network, broker, client
 //    "errors": {"KIND": n}, "sessions": bool, "session_localised": n,
 //    "map_versions": [generation, ...],
 //    "map_checksums": {"generation": "crc32 hex"}}

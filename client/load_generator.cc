@@ -42,6 +42,7 @@ void Record(const StatusOr<v1::Reply>& reply, double ms, ClientTally* tally) {
   r.latency_ms.push_back(ms);
   const v1::Timings& t = reply->localise().timings();
   r.server_ms.push_back(t.total_ms());
+  r.outside_ms.push_back(ms - t.total_ms());
   for (const auto& [stage, value] : {std::pair{"queue", t.queue_ms()},
                                      {"decode", t.decode_ms()},
                                      {"extract", t.extract_ms()},
@@ -99,6 +100,7 @@ void Merge(const LoadResult& from, LoadResult* into) {
   into->retries += from.retries;
   into->latency_ms.insert(into->latency_ms.end(), from.latency_ms.begin(), from.latency_ms.end());
   into->server_ms.insert(into->server_ms.end(), from.server_ms.begin(), from.server_ms.end());
+  into->outside_ms.insert(into->outside_ms.end(), from.outside_ms.begin(), from.outside_ms.end());
   for (const auto& [stage, values] : from.stage_ms) {
     std::vector<double>& to = into->stage_ms[stage];
     to.insert(to.end(), values.begin(), values.end());

@@ -73,6 +73,11 @@ struct LoadResult {
   std::vector<double> latency_ms;
   // Server-side total_ms (received by the server to reply built) of successful requests.
   std::vector<double> server_ms;
+  // Per successful request, its latency less its server_ms: the time spent outside the
+  // server (the client's serialising, the network or a broker, both ends' ZeroMQ threads).
+  // Paired per request, so the server's own run-to-run drift does not enter it, as it does
+  // a difference of the two medians.
+  std::vector<double> outside_ms;
   // The server's stage times of successful requests (Timings: queue, decode, extract,
   // descriptor, neighbourhood, likelihood, holistic, verify), by stage name, unsorted.
   std::map<std::string, std::vector<double>> stage_ms;

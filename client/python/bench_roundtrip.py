@@ -78,7 +78,10 @@ def main(argv: Sequence[str]) -> int:
     print(f"bench_roundtrip: {args.server}, map {args.map}, {args.features} "
           f"({len(feature_set)} features, {mode}), {args.requests} requests after "
           f"{args.warmup} warm-up")
-    for label, values in (("round trip ms", round_trip_ms), ("server ms", server_ms)):
+    # Outside the server, request by request (as `sceneloc bench`'s outside_ms).
+    outside_ms = [trip - server for trip, server in zip(round_trip_ms, server_ms)]
+    for label, values in (("round trip ms", round_trip_ms), ("server ms", server_ms),
+                          ("outside ms", outside_ms)):
         print(f"{label:<14} median {quantile(values, 0.5):.2f}  p99 {quantile(values, 0.99):.2f}"
               f"  max {max(values):.2f}")
     return 0

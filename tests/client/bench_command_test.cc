@@ -134,6 +134,14 @@ TEST_F(BenchCommandTest, WritesTheDocumentedJson) {
   EXPECT_LE(latency["p90"].get<double>(), latency["p99"].get<double>());
   EXPECT_LE(latency["p99"].get<double>(), latency["max"].get<double>());
   EXPECT_LE(j["server_ms"]["p50"].get<double>(), latency["max"].get<double>());
+  // Outside the server, request by request: a real loopback round trip takes some time, and
+  // never more than the whole (each request's part is at most its latency, so every
+  // quantile is too).
+  const nlohmann::json& outside = j["outside_ms"];
+  EXPECT_GT(outside["p50"].get<double>(), 0);
+  EXPECT_LE(outside["p50"].get<double>(), latency["p50"].get<double>());
+  EXPECT_LE(outside["p99"].get<double>(), latency["p99"].get<double>());
+  EXPECT_NE(run.out.find("outside ms  p50 "), std::string::npos) << run.out;
   // The server's stages, each no longer than the whole: JPEGs are decoded and extracted.
   const nlohmann::json& stages = j["server_stage_ms"];
   for (const char* stage : {"queue", "decode", "extract", "descriptor", "neighbourhood",

@@ -36,6 +36,7 @@ def test_prints_median_and_p99(
     assert "3 requests after 1 warm-up" in result.stdout
     assert re.search(r"round trip ms\s+median [\d.]+\s+p99 [\d.]+", result.stdout), result.stdout
     assert re.search(r"server ms\s+median [\d.]+\s+p99 [\d.]+", result.stdout), result.stdout
+    assert re.search(r"outside ms\s+median [\d.]+\s+p99 [\d.]+", result.stdout), result.stdout
 
 
 def test_error_reply_exits_1(server: ServerProcess, feature_files: dict[str, Path]) -> None:
