@@ -1,6 +1,7 @@
 #include "tools/eval/sequence_eval.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <numeric>
 #include <random>
@@ -163,6 +164,17 @@ std::vector<Walk> StandardWalks(size_t n) {
   stop.insert(stop.end(), 10, m / 2);
   for (int q = m / 2 + 1; q < m; ++q) stop.push_back(q);
   add("stop_10", "standing 10 frames halfway", stop);
+  // A robot that keeps speeding up and slowing down: its pace 3^sin(2 pi k / 40) locations
+  // per frame at step k, from the tour's up to three times it, back, down to a third and
+  // back every 40 frames (at most a third faster or slower from one frame to the next).
+  std::vector<int> varying;
+  double at = 0;
+  for (int k = 0; at < m - 0.5; ++k) {
+    varying.push_back(static_cast<int>(std::lround(at)));
+    at += std::pow(3.0, std::sin(2 * M_PI * k / kVaryingPacePeriod));
+  }
+  add("pace_varying", "a pace between a third and three times the tour's, changing every frame",
+      varying);
   return walks;
 }
 

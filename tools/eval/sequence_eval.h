@@ -79,8 +79,11 @@ struct Walk {
 // The walks over n queries (n >= 1): "in_order"; "reversed" (backing up the whole route);
 // "there_and_back" (to 60%, back to 20%, then on to the end); "pace_2" and "pace_3" (every
 // 2nd / 3rd query: a robot two or three times the tour's pace); "slow_3" (each query 3
-// times: a third of it); "stop_10" (10 frames standing halfway).
+// times: a third of it); "stop_10" (10 frames standing halfway); "pace_varying" (a pace that
+// changes every frame, from the tour's to three times it, back, to a third and back every
+// kVaryingPacePeriod frames).
 std::vector<Walk> StandardWalks(size_t n);
+constexpr int kVaryingPacePeriod = 40;
 
 struct WalkSummary {
   std::string name;
