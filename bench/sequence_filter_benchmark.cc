@@ -78,6 +78,15 @@ void BM_FilterUpdateBeliefOnly(benchmark::State& state) {
 }
 BENCHMARK(BM_FilterUpdateBeliefOnly)->Arg(200)->Arg(10000);
 
+// The same without the speed drawn afresh (sequence.speed_jump 0): the difference is what
+// the heavy tail on the speed's change costs in SequenceFilter::Predict.
+void BM_FilterUpdateNoSpeedJump(benchmark::State& state) {
+  SequenceOptions options;
+  options.speed_jump = 0;
+  RunFilterUpdate(state, options);
+}
+BENCHMARK(BM_FilterUpdateNoSpeedJump)->Arg(200)->Arg(10000);
+
 // 1,000 live sessions in the server's store, each after one frame: the memory they hold.
 void BM_ThousandSessions(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));

@@ -105,6 +105,7 @@ latency_run() {
   local run=$1 args=(--clients 1 --features --map-file "$map_file")
   case $run in
     f1) args+=("$data/day_right") ;;
+    f1u8) args+=(--uint8 "$data/day_right") ;;
     one) args+=("$out/one") ;;
     one8) args+=(--uint8 "$out/one") ;;
   esac
@@ -135,7 +136,7 @@ for ((round = 1; round <= rounds; round++)); do
   start_broker
   start_worker a
   broker_endpoint=$endpoint
-  for run in f1 one one8; do latency_run "$run"; done
+  for run in f1 f1u8 one one8; do latency_run "$run"; done
   "$py" "$root/client/python/bench_roundtrip.py" --server "$direct_endpoint" --map gp \
     --features "$out/one.pb" -n 300 >"$out/fleet-python-$round.txt"
   cleanup
@@ -180,7 +181,8 @@ for run, label in (("f8", "8 clients, feature sets"), ("j8", "8 clients, JPEG"))
           f"; errors {sum(errors(n, run) for n in ('direct', 'broker1', 'broker2', 'direct2'))}")
 print("1 client: p50 direct / through the broker; outside the server (the median over requests of "
       "each one's latency less its server time: network, broker, client) and what the broker adds")
-for run, label in (("f1", "features, 100 frames"), ("one", "features, 1 frame"),
+for run, label in (("f1", "features, 100 frames"), ("f1u8", "features uint8, 100 frames"),
+                   ("one", "features, 1 frame"),
                    ("one8", "features uint8, 1 frame")):
     d50, b50 = med("direct", run, "p50"), med("broker1", run, "p50")
     do, bo = med("direct", run, "outside"), med("broker1", run, "outside")

@@ -90,6 +90,10 @@ SettingTable SequenceSettings(SequenceOptions* o) {
           .Range(0, 1)
           .Help("per frame, P(the speed changes by half a location per frame)")
           .Flag("sequence-speed-change"),
+      Setting("sequence", "speed_jump", &o->speed_jump)
+          .Range(0, 1)
+          .Help("per frame, P(the speed is drawn afresh, any speed equally likely)")
+          .Flag("sequence-speed-jump"),
       Setting("sequence", "jump", &o->jump)
           .Range(0, 1)
           .Help("kidnap floor: share of the belief spread over every location per frame")

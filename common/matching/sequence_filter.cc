@@ -32,6 +32,7 @@ struct Workspace {
   std::vector<float> scores;  // the frame's evidence read with the session's camera
   std::vector<float> sped;    // Predict: after the change of speed
   std::vector<float> moved;   // Predict: after the step
+  std::vector<float> total;   // Predict: each location over every speed (speed_jump)
   std::vector<double> log_lik;
   // Observe: the frame's single-frame posterior over the locations, exp((s_l - top) / T)
   // over posterior_total (empty: the frame has no evidence), which CheckTrack reads after it.
@@ -151,6 +152,21 @@ void SequenceFilter::Predict(std::vector<float>* belief) const {
       stay[l] += static_cast<float>(keep * from[l]);
       if (down != nullptr) down[l] += static_cast<float>(each * from[l]);
       if (up != nullptr) up[l] += static_cast<float>(each * from[l]);
+    }
+  }
+  // And with probability speed_jump the speed is drawn afresh: each location's mass over
+  // every speed, shared equally among them.
+  if (const double redraw = options_.speed_jump; redraw > 0) {
+    std::vector<float>& total = ThreadWorkspace().total;
+    total.assign(static_cast<size_t>(n), 0.0f);
+    for (int v = 0; v < speeds; ++v) {
+      const float* from = b.data() + static_cast<size_t>(v) * n;
+      for (int l = 0; l < n; ++l) total[l] += from[l];
+    }
+    const auto keep = static_cast<float>(1 - redraw), each = static_cast<float>(redraw / speeds);
+    for (int v = 0; v < speeds; ++v) {
+      float* to = sped.data() + static_cast<size_t>(v) * n;
+      for (int l = 0; l < n; ++l) to[l] = keep * to[l] + each * total[l];
     }
   }
   // Then the step (steps_: the speed's locations, give or take one). A step

@@ -9,7 +9,9 @@
 // map" state.
 // One step, causal (an answer uses only the frames so far):
 //   predict:  the speed changes by half a location per frame with probability
-//             speed_change (otherwise it is kept), then the robot steps its speed (a half
+//             speed_change (otherwise it is kept), and with probability speed_jump it is
+//             drawn afresh (any speed; a robot that changes pace at once is followed while
+//             the steady robot's speed stays stiff), then the robot steps its speed (a half
 //             speed split between the whole steps around it), give or take one location
 //             (1/6, 4/6, 1/6); a step past an end of the route turns round there
 //             and walks back the rest at the opposite speed. A kidnap floor spreads `jump`

@@ -82,6 +82,8 @@ TEST(MatchSettingsTest, RangesAreTheDocumentedOnes) {
        33},
       {"sequence.speed_change", [](MatchOptions* o, double v) { o->sequence.speed_change = v; }, 0,
        1, -0.01, 1.01},
+      {"sequence.speed_jump", [](MatchOptions* o, double v) { o->sequence.speed_jump = v; }, 0, 1,
+       -0.01, 1.01},
       {"sequence.evidence_spread",
        [](MatchOptions* o, double v) { o->sequence.evidence_spread = v; }, 0, 1, -0.01, 1.01},
       {"sequence.evidence_floor", [](MatchOptions* o, double v) { o->sequence.evidence_floor = v; },

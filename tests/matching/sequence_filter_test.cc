@@ -124,6 +124,36 @@ TEST_F(SequenceFilterTest, KeepsAFastPaceThroughFramesWithoutEvidence) {
   EXPECT_LE(std::abs(a.location - (20 + 3 * 24)), 2) << a.location;
 }
 
+// A robot that walks one location a frame and then, at once, three: the speed drawn afresh
+// now and then (speed_jump) lets the belief take up the new pace sooner than half a
+// location per frame at a time, and the steady walk before is answered as well.
+TEST_F(SequenceFilterTest, SpeedJumpFollowsASuddenChangeOfPace) {
+  options_.max_forward = 4;
+  options_.max_backward = 4;
+  options_.speed_change = 0.02;
+  const auto wrong_answers = [&](double speed_jump, int* before) {
+    options_.speed_jump = speed_jump;
+    const SequenceFilter filter = Filter();
+    SequenceState state;
+    rng_.seed(5);
+    int after = 0;
+    *before = 0;
+    for (int t = 0; t < 60; ++t) {
+      const int where = t < 30 ? 20 + t : 50 + 3 * (t - 30);
+      const SequenceAnswer a = filter.Update(Frame(where, 2.5, t % 4 == 3 ? 10 : -1), &state);
+      const bool wrong = std::abs(a.location - where) > 2;
+      if (t >= 5 && t < 30) *before += wrong ? 1 : 0;
+      if (t >= 30) after += wrong ? 1 : 0;
+    }
+    return after;
+  };
+  int steady_without = 0, steady_with = 0;
+  const int without = wrong_answers(0, &steady_without);
+  const int with = wrong_answers(0.02, &steady_with);
+  EXPECT_LT(with, without);
+  EXPECT_LE(steady_with, steady_without);
+}
+
 // A robot that sends three frames per tour location (a slower walk, or a faster camera
 // than the tour's) is followed too, and its answers do not run ahead of it.
 TEST_F(SequenceFilterTest, FollowsASlowWalk) {
@@ -208,9 +238,9 @@ TEST_F(SequenceFilterTest, WalkingBackwards) {
 // state, a band with backward steps at every frame lagged a walk down the route and lost
 // it to the look-alikes.) The turn here is instant, from one location a frame up to one
 // down: the speed must pass four half-location changes, which a robot keeping its pace
-// (speed_change 0.05) makes reluctantly, so for a few frames the answer lags the turn by up
-// to three locations, never sure of it: no wrong answer is LOCALISED, and from the sixth
-// frame on at most one is wrong.
+// (speed_change 0.02) makes reluctantly, or with a speed drawn afresh (speed_jump 0.01), so for a
+// few frames the answer lags the turn by up to three locations, never sure of it: no wrong answer
+// is LOCALISED, and from the sixth frame on at most one is wrong.
 TEST_F(SequenceFilterTest, TurnsRoundAndWalksBack) {
   options_.max_forward = 2;
   options_.max_backward = 2;
@@ -694,6 +724,9 @@ TEST(SequenceOptionsTest, ValidateNamesTheSetting) {
   o = {};
   o.tracked_locations = -1;
   EXPECT_NE(o.Validate().message().find("tracked_locations"), std::string::npos);
+  o = {};
+  o.speed_jump = -0.1;
+  EXPECT_NE(o.Validate().message().find("speed_jump"), std::string::npos);
   o = {};
   o.leave = std::nan("");
   EXPECT_FALSE(o.Validate().ok());
