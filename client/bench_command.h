@@ -26,7 +26,7 @@ struct BenchArgs {
   int retries = 0;  // LoadOptions::retries
   int top_k = 0;
   bool features = false;
-  bool uint8 = false;     // with features: descriptors sent as uint8 (else float32)
+  bool uint8 = true;      // with features: descriptors sent as uint8 (else float32)
   bool sessions = false;  // one session per client thread (LoadOptions::sessions)
   // Extractor settings for --features (client_extractor.h), as `sceneloc extract` takes
   // them: the map file's own settings and frame, else the training settings file (config)

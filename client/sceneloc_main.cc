@@ -2,7 +2,7 @@
 //   sceneloc localise --server EP --map NAME IMAGE...           one answer line per image
 //   sceneloc localise ... --session NAME IMAGE...  the images in order as one robot's session
 //   sceneloc localise --server EP --map NAME --features FILE...  feature sets instead
-//   sceneloc extract IMAGE --out FILE [--config train.yaml] [--image-scale S] [--uint8]
+//   sceneloc extract IMAGE --out FILE [--config train.yaml] [--image-scale S] [--float32]
 //   sceneloc maps --server EP          sceneloc reload --server EP --map NAME
 //   sceneloc stats --server EP
 //   sceneloc bench --server EP --map NAME --clients N --duration S [--features] [--sessions]
@@ -234,7 +234,7 @@ int RunStats(sceneloc::Client* client) {
 struct CommandLine {
   std::string server, map, out;
   std::vector<std::string> inputs;
-  bool features = false, uint8 = false;
+  bool features = false, uint8 = true;  // uint8: extract's descriptors (--float32: false)
   int timeout_ms = 10000;
   int overload_wait_ms = sceneloc::ClientOptions().overload_wait_ms;
   sceneloc::LocaliseOptions localise_options;
@@ -306,7 +306,9 @@ CLI::App* AddExtract(CLI::App* app, CommandLine* c) {
                       "else: training settings whose extractor: section to use");
   extract->add_option("--working-size", c->extract_source.working_size,
                       "else: override extractor.working_size (long side, pixels)");
-  extract->add_flag("--uint8", c->uint8, "store descriptors as uint8 (4x smaller)");
+  CLI::Option* exact = extract->add_flag_callback(
+      "--float32", [c] { c->uint8 = false; }, "store descriptors as float32 (exact, 4x larger)");
+  extract->add_flag("--uint8", "store descriptors as uint8 (the default)")->excludes(exact);
   return extract;
 }
 
@@ -331,8 +333,11 @@ CLI::App* AddBench(CLI::App* app, sceneloc::BenchArgs* b) {
       ->capture_default_str();
   bench->add_flag("--features", b->features,
                   "extract feature sets once on the client and send those instead of JPEGs");
-  bench->add_flag("--uint8", b->uint8,
-                  "with --features: send the descriptors as uint8 (a quarter of float32's bytes)");
+  CLI::Option* exact = bench->add_flag_callback(
+      "--float32", [b] { b->uint8 = false; },
+      "with --features: send the descriptors as float32 (exact, 4x larger)");
+  bench->add_flag("--uint8", "with --features: send the descriptors as uint8 (the default)")
+      ->excludes(exact);
   bench->add_option("--map-file", b->map_file,
                     "with --features: take the extractor settings from this map file");
   bench->add_option("--config", b->config,

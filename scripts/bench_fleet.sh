@@ -37,7 +37,7 @@ map_file="$out/maps/gp.scnl"
 frame="$(find "$data/day_right" -name '*.jpg' | sort | head -n 1)"
 mkdir -p "$out/one"
 cp "$frame" "$out/one/"
-"$client" extract "$frame" --out "$out/one.pb" --map-file "$map_file" >/dev/null
+"$client" extract "$frame" --out "$out/one.pb" --map-file "$map_file" --float32 >/dev/null
 
 # The Python client of this checkout, installed offline into a venv of Debian's python.
 py="$out/pyvenv/bin/python"
@@ -104,9 +104,9 @@ throughput_runs() {
 latency_run() {
   local run=$1 args=(--clients 1 --features --map-file "$map_file")
   case $run in
-    f1) args+=("$data/day_right") ;;
+    f1) args+=(--float32 "$data/day_right") ;;
     f1u8) args+=(--uint8 "$data/day_right") ;;
-    one) args+=("$out/one") ;;
+    one) args+=(--float32 "$out/one") ;;
     one8) args+=(--uint8 "$out/one") ;;
   esac
   endpoint=$direct_endpoint bench direct "$run" "${args[@]}"

@@ -159,19 +159,22 @@ TEST_F(BenchCommandTest, WritesTheDocumentedJson) {
   EXPECT_EQ(j["map_checksums"][generation].get<std::string>().size(), 8u);
 }
 
-// Feature sets extracted on the client with the map's settings, sent as uint8.
+// Feature sets extracted on the client with the map's settings, sent as uint8 (the
+// default) and as float32.
 TEST_F(BenchCommandTest, SendsFeatureSets) {
   StartServer();
   args_.features = true;
-  args_.uint8 = true;
   args_.map_file = test::TestMapPath();
   args_.json_out = out_.File("bench.json");
-  const BenchRun run = RunCaptured(args_);
-  ASSERT_EQ(run.status, 0) << run.out << run.err;
-  const nlohmann::json j = ReadJson();
-  EXPECT_EQ(j["mode"], "features");
-  EXPECT_EQ(j["descriptors"], "uint8");
-  EXPECT_EQ(j["ok"], j["requests"]);
+  for (const bool uint8 : {true, false}) {
+    args_.uint8 = uint8;
+    const BenchRun run = RunCaptured(args_);
+    ASSERT_EQ(run.status, 0) << run.out << run.err;
+    const nlohmann::json j = ReadJson();
+    EXPECT_EQ(j["mode"], "features");
+    EXPECT_EQ(j["descriptors"], uint8 ? "uint8" : "float32");
+    EXPECT_EQ(j["ok"], j["requests"]);
+  }
 }
 
 // A map the server does not have: every request fails, counted by status name; exit 1.

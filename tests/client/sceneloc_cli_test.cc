@@ -82,18 +82,24 @@ TEST_F(ScenelocCliTest, ErrorReplyExitsOne) {
 }
 
 // extract writes a feature set on the client, in the map's frame (--map-file) or in a frame
-// of its own (--working-size); localise --features sends it (float32 and uint8) and gets
-// the right location.
+// of its own (--working-size), its descriptors uint8 unless --float32 asks for them exact;
+// localise --features sends it (float32 and uint8) and gets the right location.
 TEST_F(ScenelocCliTest, ExtractThenLocaliseFeatures) {
-  const std::string f32 = (dir_ / "q4.f32.pb").string(), u8 = (dir_ / "q4.u8.pb").string();
-  RunResult run =
-      Sceneloc("extract " + Image(4) + " --out " + f32 + " --map-file " + test::TestMapPath());
+  const std::string f32 = (dir_ / "q4.f32.pb").string(), u8 = (dir_ / "q4.u8.pb").string(),
+                    plain = (dir_ / "q4.pb").string();
+  RunResult run = Sceneloc("extract " + Image(4) + " --out " + f32 + " --map-file " +
+                           test::TestMapPath() + " --float32");
   ASSERT_EQ(run.status, 0) << run.output;
   EXPECT_NE(run.output.find("(640x360)"), std::string::npos) << run.output;
   run = Sceneloc("extract " + Image(4) + " --out " + u8 + " --working-size 480 --uint8");
   ASSERT_EQ(run.status, 0) << run.output;
   EXPECT_NE(run.output.find("(480x270)"), std::string::npos) << run.output;
   EXPECT_LT(fs::file_size(u8) * 2, fs::file_size(f32));
+  run = Sceneloc("extract " + Image(4) + " --out " + plain + " --map-file " + test::TestMapPath());
+  ASSERT_EQ(run.status, 0) << run.output;
+  EXPECT_LT(fs::file_size(plain) * 2, fs::file_size(f32));  // uint8 by default
+  run = Sceneloc("extract " + Image(4) + " --out " + plain + " --uint8 --float32");
+  EXPECT_NE(run.status, 0) << run.output;  // one or the other
   run = Sceneloc("localise --features --server " + server_.endpoint + " --map synthetic " + f32 +
                  " " + u8);
   EXPECT_EQ(run.status, 0) << run.output;

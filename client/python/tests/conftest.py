@@ -168,6 +168,6 @@ def feature_files(
     image = _path(pytestconfig, "query_jpeg")
     out = tmp_path_factory.mktemp("features")
     return {
-        "float32": extract(sceneloc_bin, image, map_file, out / "query.pb"),
+        "float32": extract(sceneloc_bin, image, map_file, out / "query.pb", "--float32"),
         "uint8": extract(sceneloc_bin, image, map_file, out / "query_uint8.pb", "--uint8"),
     }
