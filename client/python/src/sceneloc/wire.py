@@ -30,13 +30,19 @@ def _varint(value: int) -> bytes:
     return bytes(out)
 
 
+def field_head(field: int, length: int) -> bytes:
+    """The key and length of a length-delimited field whose payload of `length` bytes
+    follows: for writing a large payload after it without concatenating it twice."""
+    return _varint(field << 3 | 2) + _varint(length)
+
+
 def length_delimited(field: int, payload: bytes) -> bytes:
     """One length-delimited field (an embedded message, bytes, or a packed repeated scalar)
     in the protobuf wire format: its key, its length, its bytes. Serialised messages
     concatenate: appending a field of an embedded message that is already set merges into
     it, so large parts (descriptors, a whole feature set) can be added to a message's bytes
     as they are, without being copied value by value into protobuf objects."""
-    return _varint(field << 3 | 2) + _varint(len(payload)) + payload
+    return field_head(field, len(payload)) + payload
 
 
-__all__ = ["PROTOCOL_VERSION", "length_delimited", "pb"]
+__all__ = ["PROTOCOL_VERSION", "field_head", "length_delimited", "pb"]
