@@ -296,19 +296,31 @@ CLI::App* AddLocalise(CLI::App* app, CommandLine* c) {
   return localise;
 }
 
+// The options that choose how a client extracts feature sets (extract, bench --features):
+// the extractor's settings and the descriptors' encoding. `when` prefixes each help text
+// ("with --features: " where they only apply with another flag).
+void AddExtractorOptions(CLI::App* sub, const std::string& when, std::string* map_file,
+                         std::string* config, int* working_size, bool* uint8) {
+  sub->add_option("--map-file", *map_file,
+                  when + "extract as the server would for this map (its settings and frame)");
+  sub->add_option("--config", *config,
+                  when + "training settings whose extractor: section to use (without --map-file)");
+  sub->add_option(
+      "--working-size", *working_size,
+      when + "override extractor.working_size, long side in pixels (without --map-file)");
+  CLI::Option* exact = sub->add_flag_callback(
+      "--float32", [uint8] { *uint8 = false; }, when + "descriptors as float32 (exact, 4x larger)");
+  sub->add_flag("--uint8")
+      ->description(when + "descriptors as uint8 (the default)")
+      ->excludes(exact);
+}
+
 CLI::App* AddExtract(CLI::App* app, CommandLine* c) {
   CLI::App* extract = app->add_subcommand("extract", "compute an image's feature set locally");
   extract->add_option("image", c->inputs, "image file")->required()->expected(1);
   extract->add_option("--out", c->out, "feature-set file to write")->required();
-  extract->add_option("--map-file", c->extract_source.map_file,
-                      "extract as the server would for this map (its settings and frame)");
-  extract->add_option("--config", c->extract_source.config,
-                      "else: training settings whose extractor: section to use");
-  extract->add_option("--working-size", c->extract_source.working_size,
-                      "else: override extractor.working_size (long side, pixels)");
-  CLI::Option* exact = extract->add_flag_callback(
-      "--float32", [c] { c->uint8 = false; }, "store descriptors as float32 (exact, 4x larger)");
-  extract->add_flag("--uint8", "store descriptors as uint8 (the default)")->excludes(exact);
+  AddExtractorOptions(extract, "", &c->extract_source.map_file, &c->extract_source.config,
+                      &c->extract_source.working_size, &c->uint8);
   return extract;
 }
 
@@ -333,17 +345,8 @@ CLI::App* AddBench(CLI::App* app, sceneloc::BenchArgs* b) {
       ->capture_default_str();
   bench->add_flag("--features", b->features,
                   "extract feature sets once on the client and send those instead of JPEGs");
-  CLI::Option* exact = bench->add_flag_callback(
-      "--float32", [b] { b->uint8 = false; },
-      "with --features: send the descriptors as float32 (exact, 4x larger)");
-  bench->add_flag("--uint8", "with --features: send the descriptors as uint8 (the default)")
-      ->excludes(exact);
-  bench->add_option("--map-file", b->map_file,
-                    "with --features: take the extractor settings from this map file");
-  bench->add_option("--config", b->config,
-                    "with --features: training settings whose extractor: section to use");
-  bench->add_option("--working-size", b->working_size,
-                    "with --features: override extractor.working_size (long side, pixels)");
+  AddExtractorOptions(bench, "with --features: ", &b->map_file, &b->config, &b->working_size,
+                      &b->uint8);
   bench->add_flag("--sessions", b->sessions,
                   "each client thread is one robot's session through the folder in order");
   bench->add_option("--json", b->json_out, "write the results as JSON to this file");
