@@ -130,6 +130,9 @@ SettingTable SequenceSettings(SequenceOptions* o) {
           .Range(0, 0.5)
           .Help("per frame, P(the track's support changes)")
           .Flag("sequence-support-switch"),
+      Setting("sequence", "answer_window", &o->answer_window)
+          .Help("answer where the most belief lies within the tolerance (false: the mode)")
+          .Flag("sequence-answer-window"),
       Setting("sequence", "min_confidence", &o->min_confidence)
           .Range(0, 1)
           .Help("session answers below this are UNKNOWN")

@@ -357,10 +357,30 @@ SequenceAnswer SequenceFilter::Answer(const SequenceState& state) const {
   const int n = num_locations_;
   const std::vector<float>& at = state.location;
   SequenceAnswer a;
-  a.location = static_cast<int>(std::max_element(at.begin(), at.begin() + n) - at.begin());
-  const int low = std::max(0, a.location - tolerance_);
-  const int high = std::min(n - 1, a.location + tolerance_);
-  a.belief = std::accumulate(at.begin() + low, at.begin() + high + 1, 0.0);
+  const auto window = [&](int l) {
+    const int low = std::max(0, l - tolerance_), high = std::min(n - 1, l + tolerance_);
+    return std::accumulate(at.begin() + low, at.begin() + high + 1, 0.0);
+  };
+  if (options_.answer_window) {
+    // The belief within the tolerance of each location, slid along the route: the first
+    // location with the most (ties, to within the sliding sum's rounding: the lower).
+    constexpr double kTie = 1e-9;
+    double inside = window(0), most = -1;
+    for (int l = 0; l < n; ++l) {
+      if (l > 0) {
+        if (l + tolerance_ < n) inside += at[l + tolerance_];
+        if (l - tolerance_ - 1 >= 0) inside -= at[l - tolerance_ - 1];
+      }
+      if (inside > most + kTie) {
+        most = inside;
+        a.location = l;
+      }
+    }
+  } else {
+    a.location = static_cast<int>(std::max_element(at.begin(), at.begin() + n) - at.begin());
+  }
+  // Summed afresh: the sliding sum's rounding must not reach the reported probability.
+  a.belief = window(a.location);
   a.probability = a.belief;
   a.support = state.support;
   a.off_map = at[n];

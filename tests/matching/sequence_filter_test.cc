@@ -545,6 +545,32 @@ TEST_F(SequenceFilterTest, TiesGoToTheLowerLocation) {
   EXPECT_EQ(state.tracked, first);
 }
 
+// With answer_window the answer is where the most belief lies within the tolerance, not
+// the single most probable location: a sharp peak at 50 against a broad stretch 120-124
+// that holds more in all. Without (the default) the session answers 50, with less belief
+// within the tolerance of it.
+TEST_F(SequenceFilterTest, AnswersWhereMostBeliefLiesWithinTheTolerance) {
+  options_.evidence_spread = 0;  // each location's own evidence: the sums are plain
+  options_.answer_window = true;
+  FrameEvidence frame;
+  frame.in_map = 0.95;
+  frame.location_scores.assign(kLocations, 0.0f);
+  frame.location_scores[50] = 3.5f;
+  for (int l = 120; l <= 124; ++l) frame.location_scores[l] = 2.6f;
+
+  SequenceState windowed;
+  const SequenceAnswer broad = Filter().Update(frame, &windowed);
+  options_.answer_window = false;
+  SequenceState moded;
+  const SequenceAnswer sharp = Filter().Update(frame, &moded);
+
+  EXPECT_EQ(broad.location, 122);
+  EXPECT_EQ(sharp.location, 50);
+  EXPECT_GT(broad.belief, sharp.belief + 0.04);  // 0.345 against 0.298
+  // The same belief either way: only the answer read from it differs.
+  EXPECT_EQ(windowed.location, moded.location);
+}
+
 // With an evidence floor one misleading frame, however sure, costs the true place a bounded
 // factor: after a steady walk, a single frame that matches only a distant look-alike leaves
 // the session where the robot is, with more belief there than without the floor.
