@@ -27,12 +27,12 @@
 //             evidence_weight < 1 tempers it: consecutive frames are not independent (the
 //             same look-alike fools both). With evidence_floor f > 0 the likelihood ratio
 //             is (1 - f) L + f P(in map): a frame may be uninformative (off by default).
-//   answer:   the location with the most belief over every speed (or, with
-//             SequenceOptions::answer_window, the most within the tolerance of it); its probability
-//             is that belief as far as the frames support the track the belief follows
-//             (SequenceOptions::support_weight: a two-state chain, "supported" or not, weighed each
-//             frame by its own posterior near the answer), else the frame's own single-frame
-//             probability there.
+//   answer:   the location with the most belief over every speed (with
+//             SequenceOptions::answer_window, the most within the tolerance of it); its
+//             probability is that belief as far as the frames support the track the belief
+//             follows (SequenceOptions::support_weight: a two-state chain, "supported" or
+//             not, weighed each frame by its own posterior near the answer), else the
+//             frame's own single-frame probability there.
 //   camera:   a LOCALISED answer measures how much larger the robot's camera sees things
 //             than the tour's (SequenceOptions::learn_camera_scale); once learnt, the
 //             session reads its frames' verified candidates with it (MeasureCamera,
