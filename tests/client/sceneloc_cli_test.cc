@@ -100,6 +100,11 @@ TEST_F(ScenelocCliTest, ExtractThenLocaliseFeatures) {
   EXPECT_LT(fs::file_size(plain) * 2, fs::file_size(f32));  // uint8 by default
   run = Sceneloc("extract " + Image(4) + " --out " + plain + " --uint8 --float32");
   EXPECT_NE(run.status, 0) << run.output;  // one or the other
+  EXPECT_NE(run.output.find("excludes"), std::string::npos) << run.output;
+  run = Sceneloc("bench --server " + server_.endpoint + " --map synthetic --features " +
+                 "--float32 --uint8 " + dir_.string());  // bench --features: the same pair
+  EXPECT_NE(run.status, 0) << run.output;
+  EXPECT_NE(run.output.find("excludes"), std::string::npos) << run.output;
   run = Sceneloc("localise --features --server " + server_.endpoint + " --map synthetic " + f32 +
                  " " + u8);
   EXPECT_EQ(run.status, 0) << run.output;
