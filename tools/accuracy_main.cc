@@ -44,6 +44,8 @@ nlohmann::json MethodJson(const sl::MethodSummary& m) {
   nlohmann::json rates;
   for (int k = 0; k <= sl::kMaxTolerance; ++k) rates[std::to_string(k)] = m.match_rate[k];
   return {{"match_rate", rates},
+          {"lean", m.lean},
+          {"near_answers", m.near_answers},
           {"mean_confidence", m.mean_confidence},
           {"confidence", sl::ConfidenceJson(m.confidence)},
           {"match_ms", sl::PercentilesJson(m.match_ms)}};

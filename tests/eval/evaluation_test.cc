@@ -169,6 +169,9 @@ TEST(SummaryTest, RatesAtEachToleranceOnHandBuiltAnswers) {
   EXPECT_DOUBLE_EQ(m.match_rate[2], 3.0 / 6);
   EXPECT_DOUBLE_EQ(m.match_rate[3], 4.0 / 6);
   EXPECT_NEAR(m.mean_confidence, 3.5 / 6, 1e-6);
+  // The lean: 0, +1, -2 and +3 frames off are near; 10 off and the unanswered are not.
+  EXPECT_EQ(m.near_answers, 4);
+  EXPECT_DOUBLE_EQ(m.lean, 0.5);
   EXPECT_EQ(m.match_ms.median, 3.0);  // of 1..6 ms
   EXPECT_EQ(m.match_ms.p90, 6.0);
   EXPECT_EQ(m.confidence.queries, 6);
@@ -198,6 +201,7 @@ TEST(SummaryTest, SummariseCoversTheMethodsThatRanAndTheStages) {
   const EvalSummary empty = Summarise({}, true);
   EXPECT_EQ(empty.queries, 0u);
   EXPECT_EQ(empty.ours.match_rate[3], 0.0);
+  EXPECT_EQ(empty.ours.lean, 0.0);  // no near answers: no lean, not a division by zero
 }
 
 // A map trained from a generated tour and the test pass of the same route as queries.

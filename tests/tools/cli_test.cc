@@ -79,8 +79,8 @@ TEST_F(CliTest, TrainThenEval) {
   EXPECT_NE(r.output.find("baseline"), std::string::npos);
   std::ifstream in(json);
   std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  for (const char* key : {"\"match_rate\"", "\"mean_confidence\"", "\"timing_ms\"", "\"extract\"",
-                          "\"p90\"", "\"baseline\"", "\"per_query\""}) {
+  for (const char* key : {"\"match_rate\"", "\"lean\"", "\"mean_confidence\"", "\"timing_ms\"",
+                          "\"extract\"", "\"p90\"", "\"baseline\"", "\"per_query\""}) {
     EXPECT_NE(text.find(key), std::string::npos) << key;
   }
 }

@@ -18,6 +18,8 @@ nlohmann::json RatesJson(const MethodSummary& m) {
 
 nlohmann::json MethodJson(const MethodSummary& m) {
   return {{"match_rate", RatesJson(m)},
+          {"lean", m.lean},
+          {"near_answers", m.near_answers},
           {"mean_confidence", m.mean_confidence},
           {"confidence", ConfidenceJson(m.confidence)},
           {"timing_ms", {{"match", PercentilesJson(m.match_ms)}}}};

@@ -129,6 +129,10 @@ MethodSummary SummariseMethod(const std::vector<QueryOutcome>& outcomes, Method 
     for (int k = 0; k <= kMaxTolerance; ++k) {
       if (r.predicted >= 0 && std::abs(r.predicted - o.truth) <= k) m.match_rate[k] += 1;
     }
+    if (r.predicted >= 0 && std::abs(r.predicted - o.truth) <= MethodSummary::kLeanWindow) {
+      m.lean += r.predicted - o.truth;
+      ++m.near_answers;
+    }
     m.mean_confidence += r.confidence;
     times.push_back(r.ms);
     confidence.push_back(r.confidence);
@@ -138,6 +142,7 @@ MethodSummary SummariseMethod(const std::vector<QueryOutcome>& outcomes, Method 
   const double n = std::max<double>(1, static_cast<double>(outcomes.size()));
   for (double& r : m.match_rate) r /= n;
   m.mean_confidence /= n;
+  if (m.near_answers > 0) m.lean /= m.near_answers;
   m.match_ms = ComputePercentiles(times);
   return m;
 }

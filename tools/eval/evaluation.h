@@ -63,6 +63,13 @@ Percentiles ComputePercentiles(std::vector<double> values);
 struct MethodSummary {
   double match_rate[kMaxTolerance + 1] = {0, 0, 0, 0};  // |predicted - truth| <= k
   double mean_confidence = 0;
+  // Which way the near answers lean: the mean of predicted - truth over the near_answers
+  // answers within kLeanWindow frames of the truth (0 when none). A lean shared by every
+  // method says the ground truth is offset from what the queries show; ours alone, a bias
+  // of ours (docs/results.md "Which way the near answers lean").
+  double lean = 0;
+  int near_answers = 0;
+  static constexpr int kLeanWindow = 5;
   Percentiles match_ms;
   // How well the confidence separates answers within the tolerance from the others, and
   // its acceptance at the decision threshold (confidence_metrics.h).
