@@ -40,17 +40,6 @@ std::vector<Row> Rows(const sl::SetResult& r) {
           {"baseline", &r.summary.baseline}, {"baseline+ransac", &r.summary.reranked}};
 }
 
-nlohmann::json MethodJson(const sl::MethodSummary& m) {
-  nlohmann::json rates;
-  for (int k = 0; k <= sl::kMaxTolerance; ++k) rates[std::to_string(k)] = m.match_rate[k];
-  return {{"match_rate", rates},
-          {"lean", m.lean},
-          {"near_answers", m.near_answers},
-          {"mean_confidence", m.mean_confidence},
-          {"confidence", sl::ConfidenceJson(m.confidence)},
-          {"match_ms", sl::PercentilesJson(m.match_ms)}};
-}
-
 // Each verified candidate as [location, holistic_z, inliers, log_scale, holistic]: what its
 // fused score is computed from (common/matching/evidence.h).
 nlohmann::json CandidatesJson(const std::vector<sl::CandidateEvidence>& candidates) {
@@ -110,7 +99,7 @@ nlohmann::json WalksJson(const sl::SetResult& r) {
 
 nlohmann::json SetJson(const sl::SetResult& r) {
   nlohmann::json methods;
-  for (const Row& row : Rows(r)) methods[row.method] = MethodJson(*row.summary);
+  for (const Row& row : Rows(r)) methods[row.method] = sl::MethodJson(*row.summary);
   return {{"name", r.set.name},
           {"description", r.set.description},
           {"tour", r.set.tour_dir},
@@ -397,7 +386,7 @@ int RunSuite(const Args& a, const sl::SuiteSettings& settings,
        {std::pair<std::string, const sl::EvalSummary*>{"real", &pooled.real},
         {"all", &pooled.all}}) {
     nlohmann::json methods;
-    for (const Row& row : SummaryRows(*summary)) methods[row.method] = MethodJson(*row.summary);
+    for (const Row& row : SummaryRows(*summary)) methods[row.method] = sl::MethodJson(*row.summary);
     json["pooled"][name] = {{"queries", summary->queries}, {"methods", methods}};
   }
   PrintWalks(results);

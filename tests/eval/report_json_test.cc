@@ -82,5 +82,30 @@ TEST(ReportJsonTest, MetricsOfNoQueryAreValidJson) {
   EXPECT_EQ(back["reliability_bins"][0]["count"].get<int>(), 0);
 }
 
+// One method's figures, the same in both reports: every documented key and no other, the
+// rate at each tolerance under its own key, the timing under timing_ms.match.
+TEST(ReportJsonTest, MethodHoldsEveryFigure) {
+  MethodSummary m;
+  for (int k = 0; k <= kMaxTolerance; ++k) m.match_rate[k] = 0.5 + k / 10.0;
+  m.mean_confidence = 0.61;
+  m.lean = 0.48;
+  m.near_answers = 50;
+  m.match_ms = {7.0, 9.0, 11.0};
+  m.confidence = DistinctMetrics();
+  const nlohmann::json j = MethodJson(m);
+  EXPECT_EQ(Keys(j), (std::set<std::string>{"match_rate", "lean", "near_answers", "mean_confidence",
+                                            "confidence", "timing_ms"}));
+  ASSERT_EQ(j["match_rate"].size(), static_cast<size_t>(kMaxTolerance + 1));
+  for (int k = 0; k <= kMaxTolerance; ++k) {
+    EXPECT_EQ(j["match_rate"][std::to_string(k)].get<double>(), m.match_rate[k]);
+  }
+  EXPECT_EQ(j["lean"].get<double>(), 0.48);
+  EXPECT_EQ(j["near_answers"].get<int>(), 50);
+  EXPECT_EQ(j["mean_confidence"].get<double>(), 0.61);
+  EXPECT_EQ(j["confidence"], ConfidenceJson(m.confidence));
+  EXPECT_EQ(Keys(j["timing_ms"]), (std::set<std::string>{"match"}));
+  EXPECT_EQ(j["timing_ms"]["match"], PercentilesJson(m.match_ms));
+}
+
 }  // namespace
 }  // namespace sceneloc

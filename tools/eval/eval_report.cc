@@ -10,21 +10,6 @@
 namespace sceneloc {
 namespace {
 
-nlohmann::json RatesJson(const MethodSummary& m) {
-  nlohmann::json rates;
-  for (int k = 0; k <= kMaxTolerance; ++k) rates[std::to_string(k)] = m.match_rate[k];
-  return rates;
-}
-
-nlohmann::json MethodJson(const MethodSummary& m) {
-  return {{"match_rate", RatesJson(m)},
-          {"lean", m.lean},
-          {"near_answers", m.near_answers},
-          {"mean_confidence", m.mean_confidence},
-          {"confidence", ConfidenceJson(m.confidence)},
-          {"timing_ms", {{"match", PercentilesJson(m.match_ms)}}}};
-}
-
 nlohmann::json QueryJson(const QueryOutcome& o, bool with_baseline) {
   nlohmann::json q = {{"query", o.name},
                       {"truth", o.truth},

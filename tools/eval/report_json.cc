@@ -1,5 +1,7 @@
 #include "tools/eval/report_json.h"
 
+#include <string>
+
 namespace sceneloc {
 
 nlohmann::json PercentilesJson(const Percentiles& p) {
@@ -21,6 +23,17 @@ nlohmann::json ConfidenceJson(const ConfidenceMetrics& c) {
           {"accepted_precision", c.accepted_precision},
           {"accepted", c.accepted},
           {"reliability_bins", bins}};
+}
+
+nlohmann::json MethodJson(const MethodSummary& m) {
+  nlohmann::json rates;
+  for (int k = 0; k <= kMaxTolerance; ++k) rates[std::to_string(k)] = m.match_rate[k];
+  return {{"match_rate", rates},
+          {"lean", m.lean},
+          {"near_answers", m.near_answers},
+          {"mean_confidence", m.mean_confidence},
+          {"confidence", ConfidenceJson(m.confidence)},
+          {"timing_ms", {{"match", PercentilesJson(m.match_ms)}}}};
 }
 
 }  // namespace sceneloc

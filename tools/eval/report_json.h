@@ -16,4 +16,8 @@ nlohmann::json PercentilesJson(const Percentiles& p);
 //  "accepted_precision", "accepted", "reliability_bins": [{"count", "confidence", "accuracy"}]}
 nlohmann::json ConfidenceJson(const ConfidenceMetrics& c);
 
+// One method's figures: {"match_rate": {"0".."kMaxTolerance"}, "lean", "near_answers",
+//  "mean_confidence", "confidence": ConfidenceJson, "timing_ms": {"match": PercentilesJson}}
+nlohmann::json MethodJson(const MethodSummary& m);
+
 }  // namespace sceneloc
