@@ -5,6 +5,8 @@
 //   OUT/accuracy.csv    one row per set and method
 // (scripts/accuracy.sh adds OUT/accuracy.png). Run from the repository root:
 //   sceneloc-accuracy --data ../shared/data --out accuracy-out [--sets gp_day,corridor]
+// `--sets swapped` runs the three sets with tour and queries swapped instead (SwappedSuite):
+// maps nothing was tuned on.
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -290,7 +292,11 @@ void AddOptions(CLI::App* app, Args* a) {
   app->add_option("--out", a->out_dir, "folder for accuracy.json and accuracy.csv")
       ->capture_default_str();
   app->add_option("--cache", a->cache_dir, "features and generated variants (default OUT/cache)");
-  app->add_option("--sets", a->only, "run only these sets (comma-separated)")->delimiter(',');
+  app->add_option(
+         "--sets", a->only,
+         "run only these sets (comma-separated names; \"swapped\" adds the three sets with tour "
+         "and queries swapped, which are not run by default)")
+      ->delimiter(',');
   app->add_option("--tour-limit", a->tour_limit, "use the first N tour images of every set");
   app->add_option("--query-limit", a->query_limit, "use the first N queries of every set");
   app->add_option("--config", a->train_config, "our training settings")->capture_default_str();
@@ -320,19 +326,48 @@ sl::Status LoadSettings(const Args& a, sl::SuiteSettings* settings) {
   return sl::Status::Ok();
 }
 
-// The development sets to run (--sets), cut to --tour-limit and --query-limit.
+// The sets to run: without --sets the development sets; --sets picks sets of either suite
+// by name, and "swapped" names the whole swapped suite. Each cut to --tour-limit and
+// --query-limit (a set's own limit stays when it is the smaller).
 std::vector<sl::SuiteSet> SelectSets(const Args& a) {
+  const auto named = [&a](const std::string& name) {
+    return std::find(a.only.begin(), a.only.end(), name) != a.only.end();
+  };
   std::vector<sl::SuiteSet> sets;
-  for (sl::SuiteSet s : sl::DevelopmentSuite(a.data_dir)) {
-    if (!a.only.empty() && std::find(a.only.begin(), a.only.end(), s.name) == a.only.end()) {
-      continue;
-    }
+  const auto take = [&](sl::SuiteSet s, bool by_default) {
+    const bool chosen =
+        a.only.empty() ? by_default : named(s.name) || (!by_default && named("swapped"));
+    if (!chosen) return;
     if (a.tour_limit > 0)
       s.tour_limit = s.tour_limit > 0 ? std::min(s.tour_limit, a.tour_limit) : a.tour_limit;
-    if (a.query_limit > 0) s.query_limit = a.query_limit;
-    sets.push_back(s);
-  }
+    if (a.query_limit > 0)
+      s.query_limit = s.query_limit > 0 ? std::min(s.query_limit, a.query_limit) : a.query_limit;
+    sets.push_back(std::move(s));
+  };
+  for (sl::SuiteSet s : sl::DevelopmentSuite(a.data_dir)) take(std::move(s), true);
+  for (sl::SuiteSet s : sl::SwappedSuite(a.data_dir)) take(std::move(s), false);
   return sets;
+}
+
+// An error naming the first name in --sets that is neither a set of either suite nor
+// "swapped", with the names there are; "" when every name is known.
+std::string UnknownSetError(const Args& a) {
+  std::string known;
+  std::vector<std::string> names;
+  for (const auto& suite : {sl::DevelopmentSuite(a.data_dir), sl::SwappedSuite(a.data_dir)}) {
+    for (const sl::SuiteSet& s : suite) {
+      names.push_back(s.name);
+      known += s.name + ", ";
+    }
+  }
+  names.push_back("swapped");
+  known += "swapped";
+  for (const std::string& name : a.only) {
+    if (std::find(names.begin(), names.end(), name) == names.end()) {
+      return "no set '" + name + "' in '" + a.data_dir + "' (there are: " + known + ")";
+    }
+  }
+  return "";
 }
 
 // One accuracy.csv row per method of a set.
@@ -412,6 +447,7 @@ int main(int argc, char** argv) {
   a.context.cache_dir = a.cache_dir.empty() ? a.out_dir + "/cache" : a.cache_dir;
   sl::SuiteSettings settings;
   if (sl::Status loaded = LoadSettings(a, &settings); !loaded.ok()) return Fail(loaded.message());
+  if (const std::string unknown = UnknownSetError(a); !unknown.empty()) return Fail(unknown);
   const std::vector<sl::SuiteSet> sets = SelectSets(a);
   if (sets.empty()) return Fail("no set to run: is '" + a.data_dir + "' the data folder?");
   std::error_code ec;

@@ -121,6 +121,37 @@ TEST(AccuracySuiteTest, DevelopmentSuiteOfAFullDataFolder) {
   }
 }
 
+// The swapped sets: each real set's tour and queries the other way round, cut to the
+// frames both walks have, with the other data set's frames as negatives.
+TEST(AccuracySuiteTest, SwappedSuiteOfAFullDataFolder) {
+  const test::ScratchDir data("suite");
+  for (const char* d : {"gardens_point/day_left", "gardens_point/day_right",
+                        "gardens_point/night_right", "corridor/ref", "corridor/query"}) {
+    fs::create_directories(data.path() / d);
+  }
+  const std::string root = data.path().string();
+  const std::vector<SuiteSet> sets = SwappedSuite(root);
+  EXPECT_EQ(SetNames(sets),
+            (std::vector<std::string>{"gp_day_swapped", "gp_night_swapped", "corridor_swapped"}));
+  ASSERT_EQ(sets.size(), 3u);
+  EXPECT_EQ(sets[0].tour_dir, root + "/gardens_point/day_right");
+  EXPECT_EQ(sets[0].queries_dir, root + "/gardens_point/day_left");
+  EXPECT_EQ(sets[0].query_limit, 100);  // day_left has 200, day_right's tour 100
+  EXPECT_EQ(sets[1].tour_dir, root + "/gardens_point/night_right");
+  EXPECT_EQ(sets[1].queries_dir, root + "/gardens_point/day_right");
+  EXPECT_EQ(sets[2].tour_dir, root + "/corridor/query");
+  EXPECT_EQ(sets[2].queries_dir, root + "/corridor/ref");
+  EXPECT_EQ(sets[2].query_limit, 55);  // ref has 111, query's tour 55
+  EXPECT_EQ(sets[0].negative_dirs,
+            (std::vector<std::string>{root + "/corridor/ref", root + "/corridor/query"}));
+  EXPECT_EQ(sets[2].negative_dirs.size(), 3u);
+  for (const SuiteSet& s : sets) EXPECT_EQ(s.change, QueryChange::kNone) << s.name;
+  // None of them is a development set: the default run leaves them out.
+  for (const SuiteSet& d : DevelopmentSuite(root)) {
+    for (const SuiteSet& s : sets) EXPECT_NE(d.name, s.name);
+  }
+}
+
 // Sets whose folders are missing are left out, and so are missing negative folders.
 TEST(AccuracySuiteTest, DevelopmentSuiteLeavesOutWhatIsMissing) {
   const test::ScratchDir data("suite");
@@ -132,6 +163,8 @@ TEST(AccuracySuiteTest, DevelopmentSuiteLeavesOutWhatIsMissing) {
             (std::vector<std::string>{"gp_day", "gp_day_smaller", "gp_day_darker", "gp_day_jpeg",
                                       "gp_day_blur", "gp_day_zoom", "gp_day_4_3", "gp_day_roll"}));
   for (const SuiteSet& s : sets) EXPECT_TRUE(s.negative_dirs.empty()) << s.name;
+  EXPECT_EQ(SetNames(SwappedSuite(data.path().string())),
+            (std::vector<std::string>{"gp_day_swapped"}));
 }
 
 // Every ablation variant has its own name and reads as settings files do; the first is our

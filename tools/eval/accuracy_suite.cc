@@ -168,12 +168,36 @@ const char* QueryChangeName(QueryChange change) {
   return "";
 }
 
+namespace {
+
+// The sets whose tour and query folders exist, each without its missing negative folders.
+std::vector<SuiteSet> Present(std::vector<SuiteSet> all) {
+  std::vector<SuiteSet> present;
+  for (SuiteSet s : all) {
+    if (!fs::is_directory(s.tour_dir) || !fs::is_directory(s.queries_dir)) continue;
+    s.negative_dirs.erase(std::remove_if(s.negative_dirs.begin(), s.negative_dirs.end(),
+                                         [](const std::string& d) { return !fs::is_directory(d); }),
+                          s.negative_dirs.end());
+    present.push_back(s);
+  }
+  return present;
+}
+
+// The other data set's frames, which the maps of `data_dir`'s sets must not localise.
+struct Negatives {
+  std::vector<std::string> not_gp, not_corridor;
+};
+Negatives NegativesOf(const std::string& gp, const std::string& corridor) {
+  return {{corridor + "/ref", corridor + "/query"},
+          {gp + "/day_left", gp + "/day_right", gp + "/night_right"}};
+}
+
+}  // namespace
+
 std::vector<SuiteSet> DevelopmentSuite(const std::string& data_dir) {
   const std::string gp = data_dir + "/gardens_point", corridor = data_dir + "/corridor";
   // Every frame of the other data set is a frame from elsewhere for these maps.
-  const std::vector<std::string> not_gp = {corridor + "/ref", corridor + "/query"};
-  const std::vector<std::string> not_corridor = {gp + "/day_left", gp + "/day_right",
-                                                 gp + "/night_right"};
+  const auto [not_gp, not_corridor] = NegativesOf(gp, corridor);
   std::vector<SuiteSet> all = {
       {"gp_day", "Gardens Point day: day_left (200) -> day_right", gp + "/day_left", 0,
        gp + "/day_right", 0, QueryChange::kNone, not_gp},
@@ -246,15 +270,20 @@ std::vector<SuiteSet> DevelopmentSuite(const std::string& data_dir) {
        QueryChange::kRoll,
        {}},
   };
-  std::vector<SuiteSet> present;
-  for (SuiteSet s : all) {
-    if (!fs::is_directory(s.tour_dir) || !fs::is_directory(s.queries_dir)) continue;
-    s.negative_dirs.erase(std::remove_if(s.negative_dirs.begin(), s.negative_dirs.end(),
-                                         [](const std::string& d) { return !fs::is_directory(d); }),
-                          s.negative_dirs.end());
-    present.push_back(s);
-  }
-  return present;
+  return Present(std::move(all));
+}
+
+std::vector<SuiteSet> SwappedSuite(const std::string& data_dir) {
+  const std::string gp = data_dir + "/gardens_point", corridor = data_dir + "/corridor";
+  const auto [not_gp, not_corridor] = NegativesOf(gp, corridor);
+  return Present({
+      {"gp_day_swapped", "Gardens Point day, swapped: day_right (100) -> day_left 000-099",
+       gp + "/day_right", 0, gp + "/day_left", 100, QueryChange::kNone, not_gp},
+      {"gp_night_swapped", "Gardens Point, a night map: night_right (100) -> day_right",
+       gp + "/night_right", 0, gp + "/day_right", 0, QueryChange::kNone, not_gp},
+      {"corridor_swapped", "corridor, swapped: query (55) -> ref 0000000-0000054",
+       corridor + "/query", 0, corridor + "/ref", 55, QueryChange::kNone, not_corridor},
+  });
 }
 
 StatusOr<SetData> LoadSet(const SuiteSet& set, const ExtractorOptions& extractor,
