@@ -91,15 +91,20 @@ std::vector<std::string> SetNames(const std::vector<SuiteSet>& sets) {
   return names;
 }
 
-// With every folder present: all eleven sets in order, the generated variants over the
-// Gardens Point day queries, and the other data set's folders as negatives.
-TEST(AccuracySuiteTest, DevelopmentSuiteOfAFullDataFolder) {
-  const test::ScratchDir data("suite");
+// Makes every folder of ../shared/data under `data` (empty); returns its path.
+std::string FullDataFolder(const test::ScratchDir& data) {
   for (const char* d : {"gardens_point/day_left", "gardens_point/day_right",
                         "gardens_point/night_right", "corridor/ref", "corridor/query"}) {
     fs::create_directories(data.path() / d);
   }
-  const std::string root = data.path().string();
+  return data.path().string();
+}
+
+// With every folder present: all eleven sets in order, the generated variants over the
+// Gardens Point day queries, and the other data set's folders as negatives.
+TEST(AccuracySuiteTest, DevelopmentSuiteOfAFullDataFolder) {
+  const test::ScratchDir data("suite");
+  const std::string root = FullDataFolder(data);
   const std::vector<SuiteSet> sets = DevelopmentSuite(root);
   EXPECT_EQ(SetNames(sets),
             (std::vector<std::string>{"gp_day", "gp_night_same", "gp_night_other", "corridor",
@@ -125,11 +130,7 @@ TEST(AccuracySuiteTest, DevelopmentSuiteOfAFullDataFolder) {
 // frames both walks have, with the other data set's frames as negatives.
 TEST(AccuracySuiteTest, SwappedSuiteOfAFullDataFolder) {
   const test::ScratchDir data("suite");
-  for (const char* d : {"gardens_point/day_left", "gardens_point/day_right",
-                        "gardens_point/night_right", "corridor/ref", "corridor/query"}) {
-    fs::create_directories(data.path() / d);
-  }
-  const std::string root = data.path().string();
+  const std::string root = FullDataFolder(data);
   const std::vector<SuiteSet> sets = SwappedSuite(root);
   EXPECT_EQ(SetNames(sets),
             (std::vector<std::string>{"gp_day_swapped", "gp_night_swapped", "corridor_swapped"}));
