@@ -445,9 +445,9 @@ int main(int argc, char** argv) {
   AddOptions(&app, &a);
   CLI11_PARSE(app, argc, argv);
   a.context.cache_dir = a.cache_dir.empty() ? a.out_dir + "/cache" : a.cache_dir;
+  if (const std::string unknown = UnknownSetError(a); !unknown.empty()) return Fail(unknown);
   sl::SuiteSettings settings;
   if (sl::Status loaded = LoadSettings(a, &settings); !loaded.ok()) return Fail(loaded.message());
-  if (const std::string unknown = UnknownSetError(a); !unknown.empty()) return Fail(unknown);
   const std::vector<sl::SuiteSet> sets = SelectSets(a);
   if (sets.empty()) return Fail("no set to run: is '" + a.data_dir + "' the data folder?");
   std::error_code ec;

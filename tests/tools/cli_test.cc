@@ -236,5 +236,31 @@ TEST_F(CliTest, TinyImageNamed) {
   EXPECT_FALSE(fs::exists(out));
 }
 
+// sceneloc-accuracy refuses a set name that neither suite has, naming it and the sets there
+// are (the swapped ones too), before it reads a setting or makes its output folder; with
+// no set's folders present it says so.
+TEST_F(CliTest, AccuracyRefusesAnUnknownSet) {
+  const fs::path data = dir_ / "data";
+  fs::create_directories(data / "gardens_point/day_left");
+  fs::create_directories(data / "gardens_point/day_right");
+  const fs::path out = dir_ / "accuracy-out";
+  const std::string accuracy = std::string(SCENELOC_ACCURACY_BIN) + " --data '" + data.string() +
+                               "' --out '" + out.string() + "'";
+  ExpectOneLineError(RunCommand(accuracy + " --sets gp_day,nope"),
+                     {"no set 'nope'", "gp_day, ", "gp_day_roll", "gp_day_swapped", "swapped"});
+  EXPECT_FALSE(fs::exists(out));
+
+  const std::string configs = SCENELOC_CONFIGS_DIR;
+  const std::string settings = " --config " + configs + "/train.yaml --match-config " + configs +
+                               "/match.yaml --paper-config " + configs +
+                               "/paper-train.yaml --paper-match-config " + configs +
+                               "/paper-match.yaml";
+  ExpectOneLineError(
+      RunCommand(std::string(SCENELOC_ACCURACY_BIN) + " --data '" + (dir_ / "absent").string() +
+                 "' --out '" + out.string() + "' --sets swapped" + settings),
+      {"no set to run"});
+  EXPECT_FALSE(fs::exists(out));
+}
+
 }  // namespace
 }  // namespace sceneloc
