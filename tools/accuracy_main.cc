@@ -352,20 +352,16 @@ std::vector<sl::SuiteSet> SelectSets(const Args& a) {
 // An error naming the first name in --sets that is neither a set of either suite nor
 // "swapped", with the names there are; "" when every name is known.
 std::string UnknownSetError(const Args& a) {
-  std::string known;
   std::vector<std::string> names;
   for (const auto& suite : {sl::DevelopmentSuite(a.data_dir), sl::SwappedSuite(a.data_dir)}) {
-    for (const sl::SuiteSet& s : suite) {
-      names.push_back(s.name);
-      known += s.name + ", ";
-    }
+    for (const sl::SuiteSet& s : suite) names.push_back(s.name);
   }
   names.push_back("swapped");
-  known += "swapped";
   for (const std::string& name : a.only) {
-    if (std::find(names.begin(), names.end(), name) == names.end()) {
-      return "no set '" + name + "' in '" + a.data_dir + "' (there are: " + known + ")";
-    }
+    if (std::find(names.begin(), names.end(), name) != names.end()) continue;
+    std::string known;
+    for (const std::string& n : names) known += (known.empty() ? "" : ", ") + n;
+    return "no set '" + name + "' in '" + a.data_dir + "' (there are: " + known + ")";
   }
   return "";
 }
