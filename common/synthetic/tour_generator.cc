@@ -1,5 +1,6 @@
 #include "common/synthetic/tour_generator.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -8,6 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <system_error>
+#include <thread>
 
 #include "common/synthetic/scene_texture.h"
 #include "common/synthetic/texture_painter.h"
@@ -161,7 +163,7 @@ StatusOr<std::vector<std::string>> RenderTourJpegs(const TourOptions& options, i
   return jpegs;
 }
 
-Status WriteTour(const TourOptions& options, const std::string& dir, int pass) {
+Status WriteTour(const TourOptions& options, const std::string& dir, int pass, int threads) {
   SCENELOC_RETURN_IF_ERROR(CheckArguments(options, pass));
   std::error_code error;
   std::filesystem::create_directories(dir, error);
@@ -169,15 +171,34 @@ Status WriteTour(const TourOptions& options, const std::string& dir, int pass) {
     return IoError("cannot create directory '" + dir + "'" +
                    (error ? ": " + error.message() : std::string()));
   }
-  try {
-    PassRenderer renderer(options, pass);
-    for (int i = 0; i < options.num_locations; ++i) {
-      SCENELOC_RETURN_IF_ERROR(
-          WriteFile(std::filesystem::path(dir) / TourImageName(i), renderer.Render(i)));
+  // Each thread renders a contiguous run of locations with a renderer of its own (a
+  // renderer caches the scene tiles its neighbouring locations share).
+  const int count = std::clamp(threads, 1, std::max(1, options.num_locations));
+  std::vector<Status> results(static_cast<size_t>(count));
+  const auto render = [&](int part) {
+    const int begin = static_cast<int>(static_cast<int64_t>(options.num_locations) * part / count);
+    const int end =
+        static_cast<int>(static_cast<int64_t>(options.num_locations) * (part + 1) / count);
+    try {
+      PassRenderer renderer(options, pass);
+      for (int i = begin; i < end; ++i) {
+        const Status written =
+            WriteFile(std::filesystem::path(dir) / TourImageName(i), renderer.Render(i));
+        if (!written.ok()) {
+          results[static_cast<size_t>(part)] = written;
+          return;
+        }
+      }
+    } catch (const cv::Exception& e) {
+      results[static_cast<size_t>(part)] =
+          Internal(std::string("OpenCV failed while rendering a tour: ") + e.what());
     }
-  } catch (const cv::Exception& e) {
-    return Internal(std::string("OpenCV failed while rendering a tour: ") + e.what());
-  }
+  };
+  std::vector<std::thread> workers;
+  for (int part = 1; part < count; ++part) workers.emplace_back(render, part);
+  render(0);
+  for (std::thread& t : workers) t.join();
+  for (const Status& s : results) SCENELOC_RETURN_IF_ERROR(s);
   return Status::Ok();
 }
 

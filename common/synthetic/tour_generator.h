@@ -81,8 +81,9 @@ std::string TourImageName(int index);
 // Renders pass `pass` and writes dir/TourImageName(i) for every location, creating dir
 // (and its parents) if needed and overwriting existing images. Errors as for
 // RenderTourJpegs, plus kIoError naming the path when dir cannot be created or a file
-// cannot be written. Renders and writes one image at a time, so memory stays bounded
-// whatever num_locations is. A failure can leave the images written before it.
-Status WriteTour(const TourOptions& options, const std::string& dir, int pass);
+// cannot be written. Each of `threads` threads renders and writes one image at a time, so
+// memory stays bounded whatever num_locations is; the images are the same whatever the
+// thread count. A failure can leave the images written before it.
+Status WriteTour(const TourOptions& options, const std::string& dir, int pass, int threads = 1);
 
 }  // namespace sceneloc

@@ -169,6 +169,17 @@ TEST(TourGeneratorTest, WriteTourWritesNumberedImages) {
   EXPECT_EQ(TourImageName(1234), "Image1234.jpg");
 }
 
+// Several threads write the same images as one: each renders a run of locations.
+TEST(TourGeneratorTest, WriteTourInThreadsWritesTheSameImages) {
+  const ScratchDir scratch;
+  const TourOptions options = SmallTour(7);
+  ASSERT_TRUE(WriteTour(options, scratch.path().string(), kTrainingPass, 3).ok());
+  const std::vector<std::string> expected = Render(options, kTrainingPass);
+  for (int i = 0; i < 7; ++i) {
+    EXPECT_EQ(ReadFile(scratch.path() / TourImageName(i)), expected[i]) << TourImageName(i);
+  }
+}
+
 // A folder that cannot be created is an I/O error naming it, not a crash.
 TEST(TourGeneratorTest, WriteTourReportsAFolderItCannotCreate) {
   const ScratchDir scratch;
