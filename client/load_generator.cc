@@ -46,6 +46,7 @@ void Record(const StatusOr<v1::Reply>& reply, double ms, ClientTally* tally) {
   for (const auto& [stage, value] : {std::pair{"queue", t.queue_ms()},
                                      {"decode", t.decode_ms()},
                                      {"extract", t.extract_ms()},
+                                     {"place", t.place_ms()},
                                      {"descriptor", t.descriptor_ms()},
                                      {"neighbourhood", t.neighbourhood_ms()},
                                      {"likelihood", t.likelihood_ms()},

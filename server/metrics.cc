@@ -29,10 +29,15 @@ struct Stage {
   double (v1::Timings::*ms)() const;
 };
 constexpr Stage kStages[] = {
-    {"queue", &v1::Timings::queue_ms},           {"decode", &v1::Timings::decode_ms},
-    {"extract", &v1::Timings::extract_ms},       {"holistic", &v1::Timings::holistic_ms},
-    {"descriptor", &v1::Timings::descriptor_ms}, {"neighbourhood", &v1::Timings::neighbourhood_ms},
-    {"likelihood", &v1::Timings::likelihood_ms}, {"verify", &v1::Timings::verify_ms},
+    {"queue", &v1::Timings::queue_ms},
+    {"decode", &v1::Timings::decode_ms},
+    {"extract", &v1::Timings::extract_ms},
+    {"place", &v1::Timings::place_ms},
+    {"holistic", &v1::Timings::holistic_ms},
+    {"descriptor", &v1::Timings::descriptor_ms},
+    {"neighbourhood", &v1::Timings::neighbourhood_ms},
+    {"likelihood", &v1::Timings::likelihood_ms},
+    {"verify", &v1::Timings::verify_ms},
 };
 
 ClientMetric Value(double value, std::vector<ClientMetric::Label> labels = {}) {

@@ -167,6 +167,7 @@ void FillResult(const LocaliseResult& result, const LoadedMap& map, const MatchO
   reply->mutable_map()->set_checksum(map.checksum);
   reply->set_descriptor_matches(result.descriptor_matches);
   v1::Timings* t = reply->mutable_timings();
+  t->set_place_ms(result.timings.place_ms);
   t->set_descriptor_ms(result.timings.descriptor_ms);
   t->set_neighbourhood_ms(result.timings.neighbourhood_ms);
   t->set_likelihood_ms(result.timings.likelihood_ms);

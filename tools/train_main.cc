@@ -3,6 +3,8 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -15,15 +17,54 @@
 
 namespace {
 
-// One progress line per stage, rewritten in place on a terminal.
+// One progress line per stage with an estimate of the stage's time left, rewritten in place
+// on a terminal (at most ten times a second), else printed every ten seconds and at the end.
 class ProgressPrinter {
  public:
   void operator()(const std::string& stage, size_t done, size_t total) {
+    using Clock = std::chrono::steady_clock;
+    const Clock::time_point now = Clock::now();
+    if (stage != stage_) {
+      stage_ = stage;
+      start_ = now;
+      last_ = now;  // the first line after the first interval: a quick stage prints once
+    }
     const bool tty = isatty(fileno(stderr));
-    if (!tty && done != total && done % 25 != 0) return;
-    std::fprintf(stderr, "%s  %-8s %zu/%zu", tty ? "\r" : "", stage.c_str(), done, total);
-    if (!tty || done == total) std::fputc('\n', stderr);
+    const bool finished = done >= total;
+    if (!finished &&
+        now - last_ < (tty ? std::chrono::milliseconds(100) : std::chrono::seconds(10))) {
+      return;
+    }
+    last_ = now;
+    const double elapsed = std::chrono::duration<double>(now - start_).count();
+    char left[64] = "";
+    if (finished) {
+      std::snprintf(left, sizeof(left), "  in %s", Duration(elapsed).c_str());
+    } else if (done > 0 && elapsed > 1) {
+      const double remaining =
+          elapsed * static_cast<double>(total - done) / static_cast<double>(done);
+      std::snprintf(left, sizeof(left), "  %s left", Duration(remaining).c_str());
+    }
+    std::fprintf(stderr, "%s  %-10s %zu/%zu%s%s", tty ? "\r\033[K" : "", stage.c_str(), done, total,
+                 left, !tty || finished ? "\n" : "");
   }
+
+ private:
+  static std::string Duration(double seconds) {
+    char text[32];
+    const long s = std::lround(seconds);
+    if (s < 60) {
+      std::snprintf(text, sizeof(text), "%.1f s", seconds);
+    } else if (s < 3600) {
+      std::snprintf(text, sizeof(text), "%ldm%02lds", s / 60, s % 60);
+    } else {
+      std::snprintf(text, sizeof(text), "%ldh%02ldm", s / 3600, s / 60 % 60);
+    }
+    return text;
+  }
+
+  std::string stage_;
+  std::chrono::steady_clock::time_point start_, last_;
 };
 
 void PrintSummary(const sceneloc::TrainSummary& s, const std::string& out, double seconds,
@@ -41,8 +82,9 @@ void PrintSummary(const sceneloc::TrainSummary& s, const std::string& out, doubl
     std::printf("  coverage             %zu single-view candidates for images with few tracks\n",
                 s.coverage_landmarks);
   }
-  std::printf("  landmarks kept       %zu of %zu\n", s.landmarks_kept,
-              s.landmarks_before_selection);
+  std::printf("  landmarks kept       %zu of %zu (quality measured in %zu window%s)\n",
+              s.landmarks_kept, s.landmarks_before_selection, s.quality_windows,
+              s.quality_windows == 1 ? ", the whole tour" : "s");
   std::printf("  landmarks per image  mean %.1f, min %zu, max %zu\n", s.landmarks_per_image_mean,
               s.landmarks_per_image_min, s.landmarks_per_image_max);
   if (!s.images_without_landmarks.empty()) {
@@ -57,11 +99,15 @@ void PrintSummary(const sceneloc::TrainSummary& s, const std::string& out, doubl
         s.images_without_landmarks.size(), names.c_str());
   }
   std::printf("  map file             %.2f MB\n", static_cast<double>(bytes) / 1e6);
+  if (s.spool_bytes > 0) {
+    std::printf("  feature spool        %.2f GB on disk while training\n",
+                static_cast<double>(s.spool_bytes) / 1e9);
+  }
   std::printf(
       "  time (s)             extract %.1f, track %.1f, fuse %.1f, quality %.1f, "
-      "select %.2f, co-occurrence %.1f, calibration %.1f\n",
+      "select %.2f, co-occurrence %.1f, calibration %.1f, place index %.1f\n",
       s.extract_seconds, s.track_seconds, s.fuse_seconds, s.quality_seconds, s.select_seconds,
-      s.cooccurrence_seconds, s.calibration_seconds);
+      s.cooccurrence_seconds, s.calibration_seconds, s.index_seconds);
 }
 
 // Refuses an --out that cannot be written before any work is done: its folder must exist
@@ -87,7 +133,7 @@ sceneloc::Status CheckOutput(const std::string& out_path) {
 
 int main(int argc, char** argv) {
   CLI::App app{"sceneloc-train: build a landmark map from a training tour"};
-  std::string tour_dir, out_path, config_path;
+  std::string tour_dir, out_path, config_path, spool_dir;
   int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   int eta = -1;
   bool print_config = false;
@@ -97,6 +143,9 @@ int main(int argc, char** argv) {
   app.add_option("--config", config_path, "training settings (YAML), e.g. configs/train.yaml");
   app.add_option("--eta", eta, "override selection.eta (landmarks per image; 0 = keep all)");
   app.add_option("--threads", threads, "worker threads")->check(CLI::Range(1, 256));
+  app.add_option("--spool-dir", spool_dir,
+                 "folder for the features while training, about 1 MB per tour image, removed "
+                 "when done (default: the folder of --out)");
   app.add_flag("--print-config", print_config,
                "print the settings in effect (defaults, --config, --eta) as a documented "
                "settings file, and exit");
@@ -125,13 +174,18 @@ int main(int argc, char** argv) {
   }
   sceneloc::Stopwatch watch;
   ProgressPrinter progress;
-  auto result = sceneloc::TrainFromFolder(tour_dir, options, threads, std::ref(progress));
+  if (spool_dir.empty()) {
+    spool_dir = std::filesystem::path(out_path).parent_path().string();
+    if (spool_dir.empty()) spool_dir = ".";
+  }
+  auto result =
+      sceneloc::TrainFromFolder(tour_dir, options, threads, std::ref(progress), spool_dir);
   if (!result.ok()) {
     std::fprintf(stderr, "sceneloc-train: %s\n", result.status().message().c_str());
     return 1;
   }
-  const std::string bytes = sceneloc::SerializeMap(result->map);
-  const sceneloc::Status saved = sceneloc::SaveMap(result->map, out_path);
+  sceneloc::MapFileInfo info;
+  const sceneloc::Status saved = sceneloc::SaveMap(result->map, out_path, &info);
   if (!saved.ok()) {
     std::fprintf(stderr, "sceneloc-train: %s\n", saved.message().c_str());
     return 1;
@@ -142,6 +196,7 @@ int main(int argc, char** argv) {
                  "each was brought into the first image's working frame\n",
                  result->summary.mixed_size_images, result->summary.images);
   }
-  PrintSummary(result->summary, out_path, watch.Seconds(), bytes.size());
+  PrintSummary(result->summary, out_path, watch.Seconds(),
+               sceneloc::kMapHeaderBytes + info.payload_bytes);
   return 0;
 }

@@ -307,7 +307,9 @@ Status Map::Validate() const {
   SCENELOC_RETURN_IF_ERROR(ValidateNeighbourLinks(*this));
   SCENELOC_RETURN_IF_ERROR(ValidateImageLandmarks(*this));
   SCENELOC_RETURN_IF_ERROR(ValidateLandmarkValues(*this));
-  return ValidateNeighbourValues(*this);
+  SCENELOC_RETURN_IF_ERROR(ValidateNeighbourValues(*this));
+  return ValidatePlaceIndex(place_index, static_cast<size_t>(num_landmarks()), image_names.size(),
+                            holistic_grid);
 }
 
 void Map::Finalize() {
@@ -315,25 +317,43 @@ void Map::Finalize() {
   local_mean_sqnorm.resize(static_cast<size_t>(l));
   Eigen::Map<Eigen::VectorXf>(local_mean_sqnorm.data(), l) = local_mean.rowwise().squaredNorm();
 
-  // The principal axes of the means' second moment (in double: a 128 x 128 eigenproblem,
-  // about 10 ms for 10,000 landmarks). With no landmarks any orthonormal basis would do.
-  const Eigen::MatrixXd means = local_mean.cast<double>();
+  // The principal axes of the means' second moment, accumulated in double a block at a time
+  // over at most kMomentSamples landmarks, evenly spaced (a 128 x 128 eigenproblem; the axes
+  // only need to be good, and a map of a million landmarks must load in seconds). With no
+  // landmarks any orthonormal basis would do.
+  constexpr Eigen::Index kMomentSamples = 1 << 17, kBlock = 4096;
+  const Eigen::Index stride = std::max<Eigen::Index>(1, (l + kMomentSamples - 1) / kMomentSamples);
   Eigen::MatrixXd moment = Eigen::MatrixXd::Identity(kDescriptorSize, kDescriptorSize);
-  if (l > 0) moment.noalias() = means.transpose() * means;
+  if (l > 0) moment.setZero();
+  Eigen::MatrixXd block;
+  for (Eigen::Index begin = 0; begin < l; begin += kBlock * stride) {
+    const Eigen::Index rows = std::min(kBlock, (l - begin + stride - 1) / stride);
+    block.resize(rows, kDescriptorSize);
+    for (Eigen::Index r = 0; r < rows; ++r) {
+      block.row(r) = local_mean.row(begin + r * stride).cast<double>();
+    }
+    moment.noalias() += block.transpose() * block;
+  }
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> solver(moment);
   // Eigenvalues come in increasing order: the last kBoundDims columns are the axes.
-  const Eigen::MatrixXd basis = solver.eigenvectors().rightCols(kBoundDims);
-  local_basis = basis.cast<float>();
-  const Eigen::MatrixXd projected = means * basis;
-  local_projected = projected.cast<float>();
+  local_basis = solver.eigenvectors().rightCols(kBoundDims).cast<float>();
+  local_projected = local_mean * local_basis;
   local_projected_sqnorm.resize(static_cast<size_t>(l));
   local_residual_norm.resize(static_cast<size_t>(l));
-  for (Eigen::Index g = 0; g < l; ++g) {
-    local_projected_sqnorm[static_cast<size_t>(g)] =
-        static_cast<float>(projected.row(g).squaredNorm());
-    local_residual_norm[static_cast<size_t>(g)] =
-        static_cast<float>((means.row(g) - projected.row(g) * basis.transpose()).norm());
+  // The residuals directly, a block at a time (|mu|^2 - |P^T mu|^2 would cancel).
+  for (Eigen::Index begin = 0; begin < l; begin += kBlock) {
+    const Eigen::Index rows = std::min(kBlock, l - begin);
+    const DescriptorMatrix residual =
+        local_mean.middleRows(begin, rows) -
+        local_projected.middleRows(begin, rows) * local_basis.transpose();
+    for (Eigen::Index r = 0; r < rows; ++r) {
+      const auto g = static_cast<size_t>(begin + r);
+      local_projected_sqnorm[g] = local_projected.row(begin + r).squaredNorm();
+      local_residual_norm[g] = residual.row(r).norm();
+    }
   }
+  inverted_file = has_place_index() ? BuildInvertedFile(place_index, image_offsets, image_landmarks)
+                                    : InvertedFile();
 }
 
 size_t Map::MemoryBytes() const {
@@ -352,6 +372,13 @@ size_t Map::MemoryBytes() const {
   bytes += VectorBytes(image_offsets) + VectorBytes(image_landmarks);
   bytes += MatrixBytes(local_projected) + VectorBytes(local_projected_sqnorm) +
            VectorBytes(local_residual_norm);
+  const PlaceIndex& p = place_index;
+  bytes += MatrixBytes(p.vocabulary.centroids) + VectorBytes(p.landmark_word) +
+           VectorBytes(p.holistic.mean) + VectorBytes(p.holistic.axes) +
+           VectorBytes(p.holistic.projected) + VectorBytes(p.holistic.residual);
+  const InvertedFile& f = inverted_file;
+  bytes +=
+      VectorBytes(f.offsets) + VectorBytes(f.location) + VectorBytes(f.weight) + VectorBytes(f.idf);
   return bytes + VectorBytes(local_mean_sqnorm);
 }
 

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "common/features/feature_set.h"
+#include "common/map/place_index.h"
 #include "common/map/train_options.h"
 #include "common/util/status.h"
 
@@ -103,6 +104,9 @@ struct Map {
   std::vector<uint32_t> image_offsets;  // N + 1
   std::vector<uint32_t> image_landmarks;
 
+  // The coarse stage's index (place_index.h); empty in maps searched whole.
+  PlaceIndex place_index;
+
   // --- Derived by Finalize(), not stored ---
   std::vector<float> local_mean_sqnorm;  // |mu|^2 per landmark
   // S_D's lower bound (descriptor_similarity.cc): P, the kBoundDims principal axes of the
@@ -113,10 +117,13 @@ struct Map {
   ProjectedMatrix local_projected;
   std::vector<float> local_projected_sqnorm;
   std::vector<float> local_residual_norm;
+  // The place index's inverted file (empty without one).
+  InvertedFile inverted_file;
 
   int num_landmarks() const { return static_cast<int>(local_mean.rows()); }
   int num_images() const { return static_cast<int>(image_names.size()); }
   bool has_holistic() const { return !holistic_grid.empty(); }
+  bool has_place_index() const { return !place_index.empty(); }
   const float* holistic_of(int image) const {
     return holistic.data() + static_cast<size_t>(image) * holistic_grid.size();
   }

@@ -3,7 +3,7 @@
 // sequence makes LoadMap or ParseMap crash, read out of bounds or allocate much more
 // than the file's own size; each failure is a status whose message names the file.
 //
-// Layout, format version 3. Integers are little-endian two's complement, f32/f64 are
+// Layout, format version 4. Integers are little-endian two's complement, f32/f64 are
 // IEEE 754 binary32/binary64 little-endian. There is no padding anywhere.
 //
 //   Header, 32 bytes:
@@ -24,7 +24,8 @@
 //                    i32 min_landmarks_per_image, f64 local_var_floor,
 //                    f64 context_var_floor, f64 distance_sd_floor, f64 angle_var_floor,
 //                    f64 quality_s_min, f64 quality_fp_prior, i32 eta, f64 q_min,
-//                    i32 max_neighbours
+//                    i32 quality_window, i32 max_neighbours,
+//                    i32 place_index_min_locations, i32 place_index_dims
 //                    i32 tolerance, f64 confidence_temperature, f64 map_evidence_slope,
 //                    f64 map_evidence_offset
 //     MapProvenance  str tour_dir, str created_utc, str tool_version, u32 num_features,
@@ -41,6 +42,11 @@
 //                    arr<f32> observation_size, arr<f32> observation_angle
 //     Neighbours     arr<u32> neighbour_offsets, arr<neighbour> neighbours
 //     Image lists    arr<u32> image_offsets, arr<u32> image_landmarks
+//     Place index    i32 coarse, i32 fine, mat centroids (128 cols), arr<u32> landmark_word,
+//                    i32 holistic_max_shift, i32 holistic_dims, arr<f32> holistic_mean,
+//                    arr<f32> holistic_axes, arr<f32> holistic_projected,
+//                    arr<f32> holistic_residual (all zero or empty in a map without one;
+//                    place_index.h)
 //   where  str       = u64 byte count, then the bytes (UTF-8, no terminator)
 //          arr<T>    = u64 element count, then the elements packed
 //          mat       = u64 rows, u64 cols (must equal the stated count), rows x cols f32
@@ -50,6 +56,9 @@
 //
 //   where a u8 flag is 0 or 1.
 //
+//   Format version 3 (still read): as 4 without quality_window (those maps measured Q over
+//   the whole tour: they load with a window of 0) and without the place index (they are
+//   searched whole).
 //   Format version 2 (still read): as 3 without extractor.octave_layers (those maps were
 //   all made with 3 layers, OpenCV's default, which a version 2 map loads with).
 //   Format version 1 (still read): extractor.working_size was f64 image_scale, and the
@@ -81,7 +90,7 @@
 namespace sceneloc {
 
 inline constexpr char kMapMagic[8] = {'S', 'C', 'N', 'L', 'M', 'A', 'P', '\0'};
-inline constexpr uint32_t kMapFormatVersion = 3;
+inline constexpr uint32_t kMapFormatVersion = 4;
 inline constexpr size_t kMapHeaderBytes = 32;
 
 // What the header of a map file says.

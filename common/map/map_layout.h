@@ -24,7 +24,7 @@ static_assert(std::is_trivially_copyable_v<Neighbour> && sizeof(Neighbour) == 32
 // map_io.h and to the round-trip test, bump kMapFormatVersion, then update these sizes.
 static_assert(sizeof(void*) != 8 || sizeof(ExtractorOptions) == 80,
               "ExtractorOptions changed: update the map file format");
-static_assert(sizeof(void*) != 8 || sizeof(TrainOptions) == 216,
+static_assert(sizeof(void*) != 8 || sizeof(TrainOptions) == 232,
               "TrainOptions changed: update the map file format");
 
 // Fields of format version 1 that later versions store differently; read, then converted
@@ -84,7 +84,18 @@ void TransferOptions(Archive& a, Options& o, uint32_t version, V1& v1) {
   a.Field("quality_fp_prior", o.quality_fp_prior);
   a.Field("eta", o.eta);
   a.Field("q_min", o.q_min);
+  if (version >= 4) {
+    a.Field("quality_window", o.quality_window);
+  } else if constexpr (!std::is_const_v<Options>) {
+    o.quality_window = 0;  // read from an older file: Q was measured over the whole tour
+  }
   a.Field("max_neighbours", o.max_neighbours);
+  if (version >= 4) {
+    a.Field("place_index_min_locations", o.place_index_min_locations);
+    a.Field("place_index_dims", o.place_index_dims);
+  } else if constexpr (!std::is_const_v<Options>) {
+    o.place_index_min_locations = 0;  // read from an older file: made without one
+  }
   if (v2) {
     a.Field("tolerance", o.tolerance);
     a.Field("confidence_temperature", o.confidence_temperature);
@@ -109,6 +120,20 @@ void TransferCalibration(Archive& a, CalibrationT& c) {
   a.Field("calibration.off_map_distance", c.off_map_distance);
   a.Field("calibration.off_map_spread", c.off_map_spread);
   a.Field("calibration.samples", c.samples);
+}
+
+template <typename Archive, typename Index>
+void TransferPlaceIndex(Archive& a, Index& p) {
+  a.Field("place_index.coarse", p.vocabulary.coarse);
+  a.Field("place_index.fine", p.vocabulary.fine);
+  a.Field("place_index.centroids", p.vocabulary.centroids);
+  a.Field("place_index.landmark_word", p.landmark_word);
+  a.Field("place_index.holistic_max_shift", p.holistic.max_shift);
+  a.Field("place_index.holistic_dims", p.holistic.dims);
+  a.Field("place_index.holistic_mean", p.holistic.mean);
+  a.Field("place_index.holistic_axes", p.holistic.axes);
+  a.Field("place_index.holistic_projected", p.holistic.projected);
+  a.Field("place_index.holistic_residual", p.holistic.residual);
 }
 
 template <typename Archive, typename MapT, typename V1>
@@ -144,6 +169,7 @@ void TransferMap(Archive& a, MapT& m, uint32_t version, V1& v1) {
   a.Field("neighbours", m.neighbours);
   a.Field("image_offsets", m.image_offsets);
   a.Field("image_landmarks", m.image_landmarks);
+  if (version >= 4) TransferPlaceIndex(a, m.place_index);
 }
 
 // A version-1 map in today's terms: its working frame is the frame it was made in, its

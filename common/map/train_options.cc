@@ -46,6 +46,18 @@ SettingTable TrainSettings(TrainOptions* o) {
           .Range(0, 1000000)
           .Help("landmarks per tour image (0 = keep all with Q > q_min); measured"),
       Setting("selection", "q_min", &o->q_min).Range(0, 1e9).Help("paper: 0.01"),
+      Setting("selection", "quality_window", &o->quality_window)
+          .Range(0, 1000000)
+          .Unit("images")
+          .Help("Q measured over chunks of this many tour images (0 = the whole tour, paper)"),
+      Setting("place_index", "min_locations", &o->place_index_min_locations)
+          .Range(0, 100000000)
+          .Unit("locations")
+          .Help("maps this large get a coarse stage that picks the locations a query is scored "
+                "against (0 = never: every query scores every landmark)"),
+      Setting("place_index", "holistic_dims", &o->place_index_dims)
+          .Range(1, 256)
+          .Help("principal axes of the holistic descriptors kept per lateral shift"),
       Setting("calibration", "tolerance", &o->tolerance)
           .Range(0, 100)
           .Unit("frames")

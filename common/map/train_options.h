@@ -59,10 +59,27 @@ struct TrainOptions {
   int eta = 150;
   // q_min: landmarks of lower quality are never selected.
   double q_min = 0.01;
+  // Q is measured chunk by chunk: the candidates that start in each run of this many tour
+  // images, against the features of the images they span (candidate_chunks.h). The paper
+  // measures it over the whole tour, which costs the square of the tour's length; a window
+  // keeps the cost per image constant and estimates how distinctive a landmark is from the
+  // places around it. A tour no longer than this is one chunk: the paper's Q. 0 = the whole
+  // tour, however long. 64 measured level with the whole tour on the development sets (mean
+  // +-2 within 0.005, every set within its noise) at a quarter of 256's cost: docs/results.md
+  // "Maps that grow".
+  int quality_window = 64;
 
   // --- Co-occurrence (paper III-B) ---
   // Each landmark keeps at most this many co-occurring neighbours, the nearest first.
   int max_neighbours = 24;
+
+  // --- Place index (common/map/place_index.h; our departure) ---
+  // Maps of at least this many locations get a place index, whose coarse stage picks the
+  // locations each query is scored against; smaller maps are searched whole (the paper).
+  // 0 = never.
+  int place_index_min_locations = 400;
+  // Principal axes of the holistic descriptors kept per lateral shift.
+  int place_index_dims = 32;
 
   // --- Confidence (common/matching/confidence.h; our departure) ---
   // The confidence is the probability that the answer lies within this many tour frames of

@@ -151,23 +151,33 @@ uint32_t BoundSurvivors(const float* dots, const QueryProjection& query, float p
   return kept;
 }
 
-// Scores features against landmarks [begin, end) and appends the survivors to `out`.
-// First a lower bound on every pair's squared distance from a matrix product at a quarter
-// of the descriptor's width (Map::local_basis); only the pairs it cannot rule out (a few
-// percent) get their exact distance, as one 128-wide dot product each.
+// Scores features against the scope's landmarks at positions [begin, end) and appends the
+// survivors to `out` (by position). First a lower bound on every pair's squared distance
+// from a matrix product at a quarter of the descriptor's width (Map::local_basis); only the
+// pairs it cannot rule out (a few percent) get their exact distance, as one 128-wide dot
+// product each.
 void MatchBlock(const FeatureSet& features, const QueryProjection& query, const Map& map,
-                float s_min, size_t cap, size_t begin, size_t end,
+                const LandmarkScope& scope, float s_min, size_t cap, size_t begin, size_t end,
                 std::vector<DescriptorMatch>* out) {
   const auto n = static_cast<Eigen::Index>(end - begin);
   // dots(j, i) = P^T mu_j . P^T a_i; landmark-major so each landmark's column of features
   // is contiguous and the results come out ordered by landmark.
-  const Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> dots =
-      map.local_projected.middleRows(static_cast<Eigen::Index>(begin), n) *
-      query.projected.transpose();
+  Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> dots;
+  if (scope.whole()) {
+    dots.noalias() = map.local_projected.middleRows(static_cast<Eigen::Index>(begin), n) *
+                     query.projected.transpose();
+  } else {
+    ProjectedMatrix projected(n, kBoundDims);
+    for (Eigen::Index r = 0; r < n; ++r) {
+      projected.row(r) = map.local_projected.row(scope.landmark(begin + static_cast<size_t>(r)));
+    }
+    dots.noalias() = projected * query.projected.transpose();
+  }
   std::vector<uint32_t> survivors(static_cast<size_t>(dots.cols()) + 8);
   std::vector<float> distances(static_cast<size_t>(dots.cols()));
   for (Eigen::Index r = 0; r < n; ++r) {
-    const int landmark = static_cast<int>(begin) + static_cast<int>(r);
+    const uint32_t position = static_cast<uint32_t>(begin) + static_cast<uint32_t>(r);
+    const int landmark = static_cast<int>(scope.landmark(position));
     const float dmax = map.local_dmax[landmark];
     const float var = map.local_var[landmark];
     const float limit = SquaredDistanceLimit(dmax, var, s_min);
@@ -192,7 +202,7 @@ void MatchBlock(const FeatureSet& features, const QueryProjection& query, const 
       const uint32_t i = survivors[k];
       const float local = SimilarityFromSquared(distances[k], dmax, var);
       const float s = PairSimilarity(local, features.context.row(i).data(), map, landmark, s_min);
-      if (s >= s_min) out->push_back({i, static_cast<uint32_t>(landmark), s});
+      if (s >= s_min) out->push_back({i, position, s});
     }
     CapLandmarkMatches(first, cap, out);
   }
@@ -203,8 +213,15 @@ void MatchBlock(const FeatureSet& features, const QueryProjection& query, const 
 std::vector<DescriptorMatch> ComputeDescriptorMatches(const FeatureSet& features, const Map& map,
                                                       float s_min, ThreadPool* pool,
                                                       int max_per_landmark) {
+  return ComputeDescriptorMatches(features, map, LandmarkScope::Whole(map), s_min, pool,
+                                  max_per_landmark);
+}
+
+std::vector<DescriptorMatch> ComputeDescriptorMatches(const FeatureSet& features, const Map& map,
+                                                      const LandmarkScope& scope, float s_min,
+                                                      ThreadPool* pool, int max_per_landmark) {
   const size_t cap = static_cast<size_t>(std::max(0, max_per_landmark));
-  const size_t num_landmarks = static_cast<size_t>(map.num_landmarks());
+  const size_t num_landmarks = scope.size();
   if (features.size() == 0 || num_landmarks == 0) return {};
   const QueryProjection query(features, map);
   const size_t num_blocks = (num_landmarks + kLandmarkBlock - 1) / kLandmarkBlock;
@@ -212,7 +229,7 @@ std::vector<DescriptorMatch> ComputeDescriptorMatches(const FeatureSet& features
   auto run = [&](size_t block_begin, size_t block_end) {
     for (size_t b = block_begin; b < block_end; ++b) {
       const size_t begin = b * kLandmarkBlock;
-      MatchBlock(features, query, map, s_min, cap, begin,
+      MatchBlock(features, query, map, scope, s_min, cap, begin,
                  std::min(num_landmarks, begin + kLandmarkBlock), &per_block[b]);
     }
   };

@@ -20,14 +20,15 @@
 
 #include "common/features/feature_set.h"
 #include "common/map/map.h"
+#include "common/matching/landmark_scope.h"
 #include "common/util/thread_pool.h"
 
 namespace sceneloc {
 
 struct DescriptorMatch {
   uint32_t feature = 0;
-  uint32_t landmark = 0;
-  float similarity = 0;  // S_D, in [s_min, 1]
+  uint32_t landmark = 0;  // the landmark's position in the scope (its map index when whole)
+  float similarity = 0;   // S_D, in [s_min, 1]
 };
 
 // Returns every (feature, landmark) pair with S_D >= s_min, ordered by landmark, then by
@@ -40,6 +41,12 @@ struct DescriptorMatch {
 std::vector<DescriptorMatch> ComputeDescriptorMatches(const FeatureSet& features, const Map& map,
                                                       float s_min, ThreadPool* pool,
                                                       int max_per_landmark = 0);
+
+// The same over the landmarks of `scope` only, which number the matches' landmarks. The
+// matches of a landmark are those of the whole map's computation.
+std::vector<DescriptorMatch> ComputeDescriptorMatches(const FeatureSet& features, const Map& map,
+                                                      const LandmarkScope& scope, float s_min,
+                                                      ThreadPool* pool, int max_per_landmark);
 
 // S_D of one pair, computed directly (the reference the fast path is tested against).
 float DescriptorSimilarity(const FeatureSet& features, int feature, const Map& map, int landmark);

@@ -36,10 +36,15 @@ double CandidateScore(const CandidateEvidence& c, const MatchOptions& options, d
 }  // namespace
 
 std::vector<float> RobustZ(const std::vector<float>& distance) {
-  if (distance.empty()) return {};
-  const float median = Median(distance);
-  std::vector<float> deviation(distance.size());
-  for (size_t i = 0; i < distance.size(); ++i) deviation[i] = std::abs(distance[i] - median);
+  return RobustZ(distance, distance);
+}
+
+std::vector<float> RobustZ(const std::vector<float>& distance,
+                           const std::vector<float>& reference) {
+  if (distance.empty() || reference.empty()) return {};
+  const float median = Median(reference);
+  std::vector<float> deviation(reference.size());
+  for (size_t i = 0; i < reference.size(); ++i) deviation[i] = std::abs(reference[i] - median);
   const float spread = std::max(1e-6f, 1.4826f * Median(deviation));
   std::vector<float> z(distance.size());
   for (size_t i = 0; i < distance.size(); ++i) z[i] = (median - distance[i]) / spread;

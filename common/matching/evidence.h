@@ -13,6 +13,10 @@ namespace sceneloc {
 // below the typical distance scores high. Empty in, empty out.
 std::vector<float> RobustZ(const std::vector<float>& distance);
 
+// The same with the median and MAD taken from `reference` (a sample of the distances, e.g.
+// of evenly spaced locations on a map too big to measure every one exactly).
+std::vector<float> RobustZ(const std::vector<float>& distance, const std::vector<float>& reference);
+
 // The locations to verify: the verify_top best by L (by_likelihood is every location by
 // descending L), then the holistic_top best by holistic distance that are not already in,
 // each once, in that order, with their L and holistic evidence filled in. `holistic` and

@@ -17,4 +17,9 @@ namespace sceneloc {
 std::vector<float> HolisticDistances(const FeatureSet& query, const Map& map, int max_shift,
                                      ThreadPool* pool);
 
+// The holistic distance to the tour images `locations` only, in their order.
+std::vector<float> HolisticDistancesTo(const FeatureSet& query, const Map& map,
+                                       const std::vector<int>& locations, int max_shift,
+                                       ThreadPool* pool);
+
 }  // namespace sceneloc

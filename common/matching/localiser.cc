@@ -2,13 +2,16 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <limits>
 #include <numeric>
 
 #include "common/matching/descriptor_similarity.h"
 #include "common/matching/evidence.h"
 #include "common/matching/holistic_similarity.h"
 #include "common/matching/neighbourhood.h"
+#include "common/matching/place_search.h"
 #include "common/matching/verification.h"
 #include "common/util/timer.h"
 
@@ -38,11 +41,18 @@ Status CheckDeadline(const MatchOptions& options, const char* after, const Stage
 StatusOr<FrameScores> ScoreLocations(const FeatureSet& features, const Map& map,
                                      const MatchOptions& options, ThreadPool* pool,
                                      LocaliseResult* stats) {
+  return ScoreLocations(features, map, LandmarkScope::Whole(map), options, pool, stats);
+}
+
+StatusOr<FrameScores> ScoreLocations(const FeatureSet& features, const Map& map,
+                                     const LandmarkScope& scope, const MatchOptions& options,
+                                     ThreadPool* pool, LocaliseResult* stats) {
   SCENELOC_RETURN_IF_ERROR(options.Validate());
   SCENELOC_RETURN_IF_ERROR(ValidateFeatureSet(features));
   Stopwatch watch;
-  const std::vector<DescriptorMatch> matches = ComputeDescriptorMatches(
-      features, map, static_cast<float>(options.s_min), pool, options.max_matches_per_landmark);
+  const std::vector<DescriptorMatch> matches =
+      ComputeDescriptorMatches(features, map, scope, static_cast<float>(options.s_min), pool,
+                               options.max_matches_per_landmark);
   stats->descriptor_matches = matches.size();
   stats->timings.descriptor_ms = watch.Milliseconds();
   SCENELOC_RETURN_IF_ERROR(CheckDeadline(options, "descriptor", stats->timings));
@@ -50,8 +60,8 @@ StatusOr<FrameScores> ScoreLocations(const FeatureSet& features, const Map& map,
   watch.Reset();
   std::vector<float> neighbourhood;
   if (options.use_neighbourhood) {
-    neighbourhood = NeighbourhoodSimilarities(features, map, matches, options.include_centre_term,
-                                              options.max_neighbours, pool);
+    neighbourhood = NeighbourhoodSimilarities(
+        features, map, scope, matches, options.include_centre_term, options.max_neighbours, pool);
   }
   stats->timings.neighbourhood_ms = watch.Milliseconds();
   SCENELOC_RETURN_IF_ERROR(CheckDeadline(options, "neighbourhood", stats->timings));
@@ -63,10 +73,10 @@ StatusOr<FrameScores> ScoreLocations(const FeatureSet& features, const Map& map,
     mass.assign(static_cast<size_t>(features.size()), 0.0f);
     for (const DescriptorMatch& m : matches) mass[m.feature] += m.similarity;
   }
-  // max_f S(f, g) per landmark, then eq. 3.
+  // max_f S(f, g) per landmark (by scope position), then eq. 3.
   FrameScores scores;
   std::vector<float>& best = scores.best_score;
-  best.assign(static_cast<size_t>(map.num_landmarks()), 0.0f);
+  best.assign(scope.size(), 0.0f);
   scores.best_feature.assign(best.size(), -1);
   for (size_t k = 0; k < matches.size(); ++k) {
     const DescriptorMatch& m = matches[k];
@@ -79,11 +89,14 @@ StatusOr<FrameScores> ScoreLocations(const FeatureSet& features, const Map& map,
   }
   std::vector<float>& likelihood = scores.likelihood;
   likelihood.assign(static_cast<size_t>(map.num_images()), 0.0f);
-  for (int l = 0; l < map.num_images(); ++l) {
+  for (int l : scope.locations()) {
     const uint32_t begin = map.image_offsets[l], end = map.image_offsets[l + 1];
     if (begin == end) continue;
     double sum = 0;
-    for (uint32_t k = begin; k < end; ++k) sum += best[map.image_landmarks[k]];
+    for (uint32_t k = begin; k < end; ++k) {
+      const int32_t p = scope.Position(map.image_landmarks[k]);
+      if (p >= 0) sum += best[static_cast<size_t>(p)];
+    }
     likelihood[static_cast<size_t>(l)] =
         static_cast<float>(sum / std::pow(static_cast<double>(end - begin), options.size_exponent));
   }
@@ -93,11 +106,16 @@ StatusOr<FrameScores> ScoreLocations(const FeatureSet& features, const Map& map,
 
 namespace {
 
-// Locations by descending `value` (lowest index first on ties).
-std::vector<int> RankByValue(const std::vector<float>& value) {
+// The `count` locations of highest `value`, best first (lowest index first on ties): the
+// head of a stable sort by descending value, without sorting a big map's every location.
+std::vector<int> RankByValue(const std::vector<float>& value, size_t count) {
   std::vector<int> order(value.size());
   std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return value[a] > value[b]; });
+  const auto head = order.begin() + static_cast<std::ptrdiff_t>(std::min(count, order.size()));
+  std::partial_sort(order.begin(), head, order.end(), [&](int a, int b) {
+    return value[a] > value[b] || (value[a] == value[b] && a < b);
+  });
+  order.erase(head, order.end());
   return order;
 }
 
@@ -144,8 +162,8 @@ void RankAndAssess(const Map& map, const MatchOptions& options,
 }
 
 // Verifies every candidate (one RANSAC each, spread over the pool).
-void VerifyCandidates(const FeatureSet& features, const Map& map, const FrameScores& scores,
-                      const MatchOptions& options, ThreadPool* pool,
+void VerifyCandidates(const FeatureSet& features, const Map& map, const LandmarkScope& scope,
+                      const FrameScores& scores, const MatchOptions& options, ThreadPool* pool,
                       std::vector<CandidateEvidence>* candidates) {
   VerifyOptions verify_options;
   verify_options.ransac_threshold_px = options.verify_ransac_threshold * map.frame_long_side();
@@ -156,7 +174,7 @@ void VerifyCandidates(const FeatureSet& features, const Map& map, const FrameSco
   auto verify = [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) {
       CandidateEvidence& c = (*candidates)[i];
-      const Verification v = VerifyCandidate(features, map, c.location, scores.best_score,
+      const Verification v = VerifyCandidate(features, map, c.location, scope, scores.best_score,
                                              scores.best_feature, verify_options);
       c.correspondences = v.correspondences;
       c.inliers = v.inliers;
@@ -185,33 +203,93 @@ FeatureSet ScaledToMapFrame(const FeatureSet& features, const Map& map) {
   return scaled;
 }
 
+// Locations whose holistic distance the coarse stage measures exactly besides its shortlist
+// (the nearest by the approximate distance: the look-alikes the confidence weighs the answer
+// against) and its scope: kHolisticSample evenly spaced ones, the typical distance the
+// z-scores are read against, which the approximation would bias.
+constexpr int kHolisticSample = 256;
+
+struct QueryHolistic {
+  std::vector<float> distance;  // to every location; empty without holistic evidence
+  std::vector<float> z;         // RobustZ of it
+};
+
+// The holistic evidence of the query: exact for the whole map, or with the coarse stage
+// exact where it matters (above) and approximate elsewhere.
+QueryHolistic MeasureHolistic(const FeatureSet& features, const Map& map,
+                              const LandmarkScope& scope, const PlaceSearch* search,
+                              ThreadPool* pool) {
+  QueryHolistic h;
+  const int max_shift = map.options.extractor.holistic.max_shift;
+  if (search == nullptr) {
+    h.distance = HolisticDistances(features, map, max_shift, pool);
+    h.z = RobustZ(h.distance);
+    return h;
+  }
+  if (search->holistic.empty()) return h;
+  h.distance = search->holistic;
+  const int n = map.num_images();
+  std::vector<int> exact = scope.locations();
+  const int samples = std::min(n, kHolisticSample);
+  for (int i = 0; i < samples; ++i)
+    exact.push_back(static_cast<int>(static_cast<int64_t>(i) * n / samples));
+  std::sort(exact.begin(), exact.end());
+  exact.erase(std::unique(exact.begin(), exact.end()), exact.end());
+  const std::vector<float> measured = HolisticDistancesTo(features, map, exact, max_shift, pool);
+  for (size_t i = 0; i < exact.size(); ++i) h.distance[exact[i]] = measured[i];
+  std::vector<float> reference;
+  for (int i = 0; i < samples; ++i) {
+    reference.push_back(h.distance[static_cast<size_t>(static_cast<int64_t>(i) * n / samples)]);
+  }
+  h.z = RobustZ(h.distance, reference);
+  return h;
+}
+
 StatusOr<LocaliseResult> LocaliseInFrame(const FeatureSet& features, const Map& map,
                                          const MatchOptions& options, ThreadPool* pool) {
   Stopwatch total;
   LocaliseResult result;
+  const bool coarse = UsesPlaceSearch(map, options);
+  PlaceSearch search;
+  if (coarse) search = SearchPlaces(features, map, options);
+  const LandmarkScope scope =
+      coarse ? LandmarkScope::Of(map, search.locations) : LandmarkScope::Whole(map);
+  result.timings.place_ms = total.Milliseconds();
   SCENELOC_ASSIGN_OR_RETURN(const FrameScores scores,
-                            ScoreLocations(features, map, options, pool, &result));
+                            ScoreLocations(features, map, scope, options, pool, &result));
   const std::vector<float>& likelihood = scores.likelihood;
   Stopwatch stage;
-  const std::vector<float> holistic =
-      options.use_holistic
-          ? HolisticDistances(features, map, map.options.extractor.holistic.max_shift, pool)
-          : std::vector<float>();
-  const std::vector<float> holistic_z = RobustZ(holistic);
+  const QueryHolistic measured =
+      options.use_holistic ? MeasureHolistic(features, map, scope, coarse ? &search : nullptr, pool)
+                           : QueryHolistic();
+  const std::vector<float>& holistic = measured.distance;
+  const std::vector<float>& holistic_z = measured.z;
   result.timings.holistic_ms = stage.Milliseconds();
   SCENELOC_RETURN_IF_ERROR(CheckDeadline(options, "holistic", result.timings));
 
   stage.Reset();
-  const std::vector<int> by_likelihood = RankByValue(likelihood);
+  // As many by L as the candidates and a ranked list could need.
+  const std::vector<int> by_likelihood = RankByValue(
+      likelihood, static_cast<size_t>(options.verify_top + options.holistic_top + options.top_k));
+  // Candidates by holistic distance come from the scope: elsewhere it is approximate.
+  std::vector<float> selectable = holistic;
+  if (coarse && !selectable.empty()) {
+    std::vector<float> outside(selectable.size(), std::numeric_limits<float>::max());
+    for (int l : scope.locations()) outside[l] = selectable[l];
+    selectable = std::move(outside);
+  }
   std::vector<CandidateEvidence> candidates =
-      SelectCandidates(by_likelihood, likelihood, holistic, holistic_z, options);
+      SelectCandidates(by_likelihood, likelihood, selectable, holistic_z, options);
+  for (CandidateEvidence& c : candidates) {
+    if (!holistic.empty()) c.holistic = holistic[c.location];
+  }
   result.timings.likelihood_ms += stage.Milliseconds();
 
   stage.Reset();
-  VerifyCandidates(features, map, scores, options, pool, &candidates);
+  VerifyCandidates(features, map, scope, scores, options, pool, &candidates);
   result.location_scores = LocationScores(candidates, holistic_z, likelihood.size(), options);
   if (!holistic.empty()) {
-    result.nearest_holistic_distance = *std::min_element(holistic.begin(), holistic.end());
+    result.nearest_holistic_distance = *std::min_element(selectable.begin(), selectable.end());
   }
   // The locations not verified, by L: as many as a ranked list could need.
   std::vector<bool> verified(likelihood.size(), false);

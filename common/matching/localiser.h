@@ -23,6 +23,7 @@
 #include "common/features/feature_set.h"
 #include "common/map/map.h"
 #include "common/matching/confidence.h"
+#include "common/matching/landmark_scope.h"
 #include "common/matching/sequence_options.h"
 #include "common/util/status.h"
 #include "common/util/thread_pool.h"
@@ -116,6 +117,15 @@ struct MatchOptions {
   double min_confidence = 0.8;
   // How many ranked locations a result carries.
   int top_k = 5;
+  // The coarse stage (place_search.h) on maps with a place index: the fine stage scores
+  // only the locations it picks, place_word_top by shared visual words and
+  // place_holistic_top by approximate holistic distance, each with place_expand locations
+  // either side. false scores every location of every map (the paper). Measured:
+  // docs/results.md "Maps that grow".
+  bool use_place_index = true;
+  int place_word_top = 24;
+  int place_holistic_top = 24;
+  int place_expand = 3;
   // The filter of requests that name a session (sequence_filter.h).
   SequenceOptions sequence;
   // Not a setting: when the call must finish (the server sets it from the request's
@@ -159,6 +169,7 @@ struct RankedLocation {
 };
 
 struct StageTimings {
+  double place_ms = 0;          // the coarse stage (place_search.h); 0 without it
   double descriptor_ms = 0;     // S_D over all pairs
   double neighbourhood_ms = 0;  // S_N over the surviving pairs
   double likelihood_ms = 0;     // L(l) and ranking
@@ -232,13 +243,18 @@ void ReadWithCamera(const Map& map, const MatchOptions& options, LocaliseResult*
 
 // Per-landmark and per-location scores of one frame.
 struct FrameScores {
-  std::vector<float> likelihood;      // L(l) per tour location
-  std::vector<float> best_score;      // max_f S(f, g) per landmark
+  std::vector<float> likelihood;      // L(l) per tour location (0 outside the scope)
+  std::vector<float> best_score;      // max_f S(f, g) per landmark, by scope position
   std::vector<int32_t> best_feature;  // its argmax, -1 when g matched nothing
 };
 
-// Scores every tour location (exposed for evaluation and tests); fills the descriptor
+// Scores the locations of `scope` (exposed for evaluation and tests); fills the descriptor
 // match count and stage timings of `stats`.
+StatusOr<FrameScores> ScoreLocations(const FeatureSet& features, const Map& map,
+                                     const LandmarkScope& scope, const MatchOptions& options,
+                                     ThreadPool* pool, LocaliseResult* stats);
+
+// ScoreLocations over every location of the map.
 StatusOr<FrameScores> ScoreLocations(const FeatureSet& features, const Map& map,
                                      const MatchOptions& options, ThreadPool* pool,
                                      LocaliseResult* stats);

@@ -69,6 +69,18 @@ SettingTable MatchSettings(MatchOptions* o) {
           .Range(0, 1)
           .Help("answers below are UNKNOWN (measured: docs/results.md)"),
       Setting("matching", "top_k", &o->top_k).Range(1, 1000).Help("ranked locations per answer"),
+      Setting("matching", "use_place_index", &o->use_place_index)
+          .Help("on maps with a place index, score only the locations it picks (false = all)"),
+      Setting("matching", "place_word_top", &o->place_word_top)
+          .Range(0, 100000)
+          .Help("locations picked by shared visual words"),
+      Setting("matching", "place_holistic_top", &o->place_holistic_top)
+          .Range(0, 100000)
+          .Help("locations picked by approximate holistic distance"),
+      Setting("matching", "place_expand", &o->place_expand)
+          .Range(0, 1000)
+          .Unit("locations")
+          .Help("each picked location brings this many either side"),
   };
   for (SettingField& f : SequenceSettings(&o->sequence)) t.push_back(std::move(f));
   return t;

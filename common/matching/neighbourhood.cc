@@ -65,20 +65,31 @@ std::vector<float> NeighbourhoodSimilarities(const FeatureSet& features, const M
                                              const std::vector<DescriptorMatch>& matches,
                                              bool include_centre_term, int max_neighbours,
                                              ThreadPool* pool) {
-  // offsets[g]..offsets[g+1]: the matches of landmark g.
-  const size_t num_landmarks = static_cast<size_t>(map.num_landmarks());
+  return NeighbourhoodSimilarities(features, map, LandmarkScope::Whole(map), matches,
+                                   include_centre_term, max_neighbours, pool);
+}
+
+std::vector<float> NeighbourhoodSimilarities(const FeatureSet& features, const Map& map,
+                                             const LandmarkScope& scope,
+                                             const std::vector<DescriptorMatch>& matches,
+                                             bool include_centre_term, int max_neighbours,
+                                             ThreadPool* pool) {
+  // offsets[p]..offsets[p+1]: the matches of the landmark at scope position p.
+  const size_t num_landmarks = scope.size();
   std::vector<uint32_t> offsets(num_landmarks + 1, 0);
   for (const DescriptorMatch& m : matches) ++offsets[m.landmark + 1];
-  for (size_t g = 0; g < num_landmarks; ++g) offsets[g + 1] += offsets[g];
+  for (size_t p = 0; p < num_landmarks; ++p) offsets[p + 1] += offsets[p];
   const DescriptorMatch* base = matches.data();
   const auto matches_of = [&](uint32_t g) {
-    return Span{base + offsets[g], base + offsets[g + 1]};
+    const int32_t p = scope.Position(g);
+    if (p < 0) return Span{base, base};
+    return Span{base + offsets[p], base + offsets[p + 1]};
   };
   std::vector<float> result(matches.size());
   auto run = [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) {
-      result[i] = Eq2(features, map, matches[i].feature, matches[i].landmark, include_centre_term,
-                      max_neighbours, matches_of);
+      result[i] = Eq2(features, map, matches[i].feature, scope.landmark(matches[i].landmark),
+                      include_centre_term, max_neighbours, matches_of);
     }
   };
   if (pool != nullptr) {

@@ -20,7 +20,15 @@
 namespace sceneloc {
 
 // S_N for every match in `matches` (which must be ordered by landmark, as
-// ComputeDescriptorMatches returns them). max_neighbours == 0 walks all stored neighbours.
+// ComputeDescriptorMatches returns them, numbered by `scope`). A neighbour outside the scope
+// matched nothing. max_neighbours == 0 walks all stored neighbours.
+std::vector<float> NeighbourhoodSimilarities(const FeatureSet& features, const Map& map,
+                                             const LandmarkScope& scope,
+                                             const std::vector<DescriptorMatch>& matches,
+                                             bool include_centre_term, int max_neighbours,
+                                             ThreadPool* pool);
+
+// The same with the whole map as the scope.
 std::vector<float> NeighbourhoodSimilarities(const FeatureSet& features, const Map& map,
                                              const std::vector<DescriptorMatch>& matches,
                                              bool include_centre_term, int max_neighbours,

@@ -16,7 +16,7 @@ float AngleDifferenceDeg(float a, float b) {
 }  // namespace
 
 Verification VerifyCandidate(const FeatureSet& features, const Map& map, int location,
-                             const std::vector<float>& best_score,
+                             const LandmarkScope& scope, const std::vector<float>& best_score,
                              const std::vector<int32_t>& best_feature,
                              const VerifyOptions& options) {
   const bool check_angle = options.angle_tolerance_deg > 0 && !map.observation_angle.empty();
@@ -24,10 +24,11 @@ Verification VerifyCandidate(const FeatureSet& features, const Map& map, int loc
   std::vector<float> log_scale;
   for (uint32_t k = map.image_offsets[location]; k < map.image_offsets[location + 1]; ++k) {
     const uint32_t g = map.image_landmarks[k];
-    if (best_feature[g] < 0 || best_score[g] <= 0) continue;
+    const int32_t p = scope.Position(g);
+    if (p < 0 || best_feature[p] < 0 || best_score[p] <= 0) continue;
     for (uint32_t o = map.observation_offsets[g]; o < map.observation_offsets[g + 1]; ++o) {
       if (map.observation_image[o] != static_cast<uint32_t>(location)) continue;
-      const Keypoint& kp = features.keypoints[static_cast<size_t>(best_feature[g])];
+      const Keypoint& kp = features.keypoints[static_cast<size_t>(best_feature[p])];
       if (check_angle &&
           AngleDifferenceDeg(kp.angle, map.observation_angle[o]) > options.angle_tolerance_deg) {
         break;

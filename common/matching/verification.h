@@ -13,6 +13,7 @@
 
 #include "common/features/feature_set.h"
 #include "common/map/map.h"
+#include "common/matching/landmark_scope.h"
 
 namespace sceneloc {
 
@@ -45,10 +46,11 @@ struct VerifyOptions {
   double angle_tolerance_deg = 0;
 };
 
-// best_score[g] and best_feature[g] are max_f S(f, g) and its argmax (-1 when g matched
-// nothing). Deterministic for the same input.
+// best_score[p] and best_feature[p] are max_f S(f, g) and its argmax (-1 when g matched
+// nothing) of the landmark g at scope position p; landmarks outside the scope matched
+// nothing. Deterministic for the same input.
 Verification VerifyCandidate(const FeatureSet& features, const Map& map, int location,
-                             const std::vector<float>& best_score,
+                             const LandmarkScope& scope, const std::vector<float>& best_score,
                              const std::vector<int32_t>& best_feature,
                              const VerifyOptions& options);
 

@@ -32,8 +32,8 @@ SpreadStats Spread(size_t count, GetRow row, const float* mean, int offset, int 
   return s;
 }
 
-void FuseOne(const Track& track, const std::vector<FeatureSet>& tour, const TrainOptions& options,
-             int index, Map* map) {
+void FuseOne(const Track& track, const TourWindow& tour, const TrainOptions& options, int index,
+             Map* map) {
   const auto local_row = [&](size_t k) {
     return tour[track[k].image].local.row(track[k].feature).data();
   };
@@ -65,7 +65,7 @@ void FuseOne(const Track& track, const std::vector<FeatureSet>& tour, const Trai
 
 }  // namespace
 
-void FuseLandmarks(const std::vector<Track>& tracks, const std::vector<FeatureSet>& tour,
+void FuseLandmarks(const std::vector<Track>& tracks, const TourWindow& tour,
                    const TrainOptions& options, Map* map) {
   const auto n = static_cast<Eigen::Index>(tracks.size());
   map->local_mean.resize(n, kDescriptorSize);

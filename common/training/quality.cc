@@ -5,13 +5,17 @@
 namespace sceneloc {
 namespace {
 
-// owner[image][feature] = the landmark the feature was fused into, or -1.
+// owner[image - first][feature] = the landmark the feature was fused into, or -1.
 std::vector<std::vector<int>> FeatureOwners(const std::vector<Track>& tracks,
-                                            const std::vector<FeatureSet>& tour) {
+                                            const TourWindow& tour) {
   std::vector<std::vector<int>> owner(tour.size());
-  for (size_t i = 0; i < tour.size(); ++i) owner[i].assign(static_cast<size_t>(tour[i].size()), -1);
+  for (size_t i = 0; i < tour.size(); ++i) {
+    owner[i].assign(static_cast<size_t>(tour[tour.first() + i].size()), -1);
+  }
   for (size_t t = 0; t < tracks.size(); ++t) {
-    for (const TrackObservation& o : tracks[t]) owner[o.image][o.feature] = static_cast<int>(t);
+    for (const TrackObservation& o : tracks[t]) {
+      owner[o.image - tour.first()][o.feature] = static_cast<int>(t);
+    }
   }
   return owner;
 }
@@ -40,8 +44,8 @@ std::vector<Contribution> ImageContributions(const std::vector<DescriptorMatch>&
 }  // namespace
 
 std::vector<float> ComputeQuality(const Map& candidates, const std::vector<Track>& tracks,
-                                  const std::vector<FeatureSet>& tour, double s_min,
-                                  double fp_prior, ThreadPool* pool,
+                                  const TourWindow& tour, double s_min, double fp_prior,
+                                  ThreadPool* pool,
                                   const std::function<void(size_t, size_t)>& progress) {
   const size_t num_landmarks = static_cast<size_t>(candidates.num_landmarks());
   const auto owner = FeatureOwners(tracks, tour);
@@ -55,9 +59,10 @@ std::vector<float> ComputeQuality(const Map& candidates, const std::vector<Track
     const size_t end = std::min(tour.size(), begin + batch);
     auto run = [&](size_t b, size_t e) {
       for (size_t i = begin + b; i < begin + e; ++i) {
+        const FeatureSet& image = tour[tour.first() + i];
         const auto matches =
-            ComputeDescriptorMatches(tour[i], candidates, static_cast<float>(s_min), nullptr);
-        contributions[i - begin] = ImageContributions(matches, owner[i], tour[i].size());
+            ComputeDescriptorMatches(image, candidates, static_cast<float>(s_min), nullptr);
+        contributions[i - begin] = ImageContributions(matches, owner[i], image.size());
       }
     };
     if (pool != nullptr) {

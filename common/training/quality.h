@@ -13,17 +13,21 @@
 
 #include "common/features/feature_set.h"
 #include "common/map/map.h"
+#include "common/training/tour_features.h"
 #include "common/training/tracker.h"
 #include "common/util/thread_pool.h"
 
 namespace sceneloc {
 
-// Returns Q per landmark of `candidates` (landmark j was fused from tracks[j]).
-// `progress(done, total)` is called after each tour image, from the calling thread only.
-// REQUIRES: candidates.Finalize() was called.
+// Returns Q per landmark of `candidates` (landmark j was fused from tracks[j]) over the
+// features of every image `tour` holds: the whole tour (the paper), or the window of the
+// tour around the candidates that sceneloc-train scores them in (TrainOptions::
+// quality_window). `progress(done, total)` is called as images are done, from the calling
+// thread only. REQUIRES: candidates.Finalize() was called; the window holds every
+// observation of every track.
 std::vector<float> ComputeQuality(const Map& candidates, const std::vector<Track>& tracks,
-                                  const std::vector<FeatureSet>& tour, double s_min,
-                                  double fp_prior, ThreadPool* pool,
+                                  const TourWindow& tour, double s_min, double fp_prior,
+                                  ThreadPool* pool,
                                   const std::function<void(size_t, size_t)>& progress);
 
 }  // namespace sceneloc

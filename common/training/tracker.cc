@@ -95,23 +95,33 @@ std::vector<Track> BuildTracks(const std::vector<FeatureSet>& tour, const TrainO
     stats->verified_links += s.verified_links;
     stats->pairs_unverified += s.pairs_unverified;
   }
+  TourLinks tour_links;
+  tour_links.next = std::move(links);
+  for (const FeatureSet& f : tour) tour_links.feature_counts.push_back(f.size());
+  return ChainTracks(tour_links);
+}
+
+std::vector<Track> ChainTracks(const TourLinks& links) {
+  const size_t num_pairs = links.next.size();
   // A track starts at a feature that no link reaches and follows the links forward.
   std::vector<Track> tracks;
   for (size_t image = 0; image < num_pairs; ++image) {
-    std::vector<bool> reached(static_cast<size_t>(tour[image].size()), false);
+    std::vector<bool> reached(static_cast<size_t>(links.feature_counts[image]), false);
     if (image > 0) {
-      for (int target : links[image - 1]) {
+      for (int target : links.next[image - 1]) {
         if (target >= 0) reached[static_cast<size_t>(target)] = true;
       }
     }
-    for (int f = 0; f < tour[image].size(); ++f) {
-      if (reached[static_cast<size_t>(f)] || links[image][static_cast<size_t>(f)] < 0) continue;
+    for (int f = 0; f < links.feature_counts[image]; ++f) {
+      if (reached[static_cast<size_t>(f)] || links.next[image][static_cast<size_t>(f)] < 0) {
+        continue;
+      }
       Track track;
       size_t i = image;
       int feature = f;
       while (feature >= 0) {
         track.push_back({static_cast<uint32_t>(i), static_cast<uint32_t>(feature)});
-        feature = i < num_pairs ? links[i][static_cast<size_t>(feature)] : -1;
+        feature = i < num_pairs ? links.next[i][static_cast<size_t>(feature)] : -1;
         ++i;
       }
       tracks.push_back(std::move(track));

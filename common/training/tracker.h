@@ -31,7 +31,19 @@ struct TrackingStats {
 std::vector<int> LinkImagePair(const FeatureSet& a, const FeatureSet& b,
                                const TrainOptions& options, TrackingStats* stats);
 
-// Tracks of length >= 2 over the tour. `pool` may be null. Thread-safe.
+// The links of a whole tour: next[i][a] = the feature of image i + 1 linked to feature a of
+// image i, or -1 (LinkImagePair of each consecutive pair).
+struct TourLinks {
+  std::vector<std::vector<int>> next;  // one per pair: tour size - 1
+  std::vector<int> feature_counts;     // features of each tour image
+};
+
+// Chains the links into tracks of length >= 2, in order of their first image, then of
+// their first feature.
+std::vector<Track> ChainTracks(const TourLinks& links);
+
+// Tracks of length >= 2 over a tour in memory (LinkImagePair of each pair, ChainTracks).
+// `pool` may be null. Thread-safe.
 std::vector<Track> BuildTracks(const std::vector<FeatureSet>& tour, const TrainOptions& options,
                                ThreadPool* pool, TrackingStats* stats);
 

@@ -3,10 +3,13 @@
 #include <algorithm>
 #include <atomic>
 #include <ctime>
+#include <filesystem>
 
 #include "common/training/calibration.h"
+#include "common/training/candidate_chunks.h"
 #include "common/training/cooccurrence.h"
 #include "common/training/landmark_builder.h"
+#include "common/training/place_index_builder.h"
 #include "common/training/quality.h"
 #include "common/training/selection.h"
 #include "common/training/tracker.h"
@@ -18,6 +21,10 @@
 namespace sceneloc {
 namespace {
 
+// Images the link and extraction passes hold at a time (plus one): enough to keep every
+// thread busy, few enough that a batch of full-size features stays around 100 MB.
+constexpr size_t kBatchImages = 64;
+
 std::string UtcNow() {
   const std::time_t now = std::time(nullptr);
   std::tm tm{};
@@ -27,139 +34,88 @@ std::string UtcNow() {
   return buffer;
 }
 
-// A map holding only the landmarks in `keep` (ascending), with observations; quality
-// copied, neighbours and image lists left for BuildNeighbours.
-Map SubsetLandmarks(const Map& all, const std::vector<uint32_t>& keep) {
-  Map out;
-  out.options = all.options;
-  out.provenance = all.provenance;
-  out.image_names = all.image_names;
-  out.image_width = all.image_width;
-  out.image_height = all.image_height;
-  out.holistic_grid = all.holistic_grid;
-  out.holistic = all.holistic;
-  const auto n = static_cast<Eigen::Index>(keep.size());
-  out.local_mean.resize(n, kDescriptorSize);
-  out.context_mean.resize(n, kDescriptorSize);
-  out.context_dmax.resize(n, kNumHistograms);
-  out.context_var.resize(n, kNumHistograms);
-  out.observation_offsets.assign(1, 0);
-  for (Eigen::Index k = 0; k < n; ++k) {
-    const uint32_t g = keep[static_cast<size_t>(k)];
-    out.local_mean.row(k) = all.local_mean.row(g);
-    out.context_mean.row(k) = all.context_mean.row(g);
-    out.context_dmax.row(k) = all.context_dmax.row(g);
-    out.context_var.row(k) = all.context_var.row(g);
-    out.local_dmax.push_back(all.local_dmax[g]);
-    out.local_var.push_back(all.local_var[g]);
-    out.mean_x.push_back(all.mean_x[g]);
-    out.mean_y.push_back(all.mean_y[g]);
-    out.quality.push_back(all.quality[g]);
-    for (uint32_t o = all.observation_offsets[g]; o < all.observation_offsets[g + 1]; ++o) {
-      out.observation_image.push_back(all.observation_image[o]);
-      out.observation_x.push_back(all.observation_x[o]);
-      out.observation_y.push_back(all.observation_y[o]);
-      out.observation_size.push_back(all.observation_size[o]);
-      out.observation_angle.push_back(all.observation_angle[o]);
-    }
-    out.observation_offsets.push_back(static_cast<uint32_t>(out.observation_image.size()));
-  }
-  return out;
+void Report(const ProgressFn& progress, const char* stage, size_t done, size_t total) {
+  if (progress) progress(stage, done, total);
 }
+
+// What one pass over the tour learns besides its features: the links between consecutive
+// images, the working frame, and every image's holistic descriptor (which go into the map).
+struct TourScan {
+  TourLinks links;
+  TrackingStats tracking;
+  size_t features = 0;
+  int frame_width = 0;
+  int frame_height = 0;
+  HolisticGrid holistic_grid;
+  std::vector<float> holistic;  // image after image
+};
 
 // Every tour image must be in one frame width (ExtractFolder makes sure of it) and carry a
 // holistic descriptor on one grid, or none at all.
-Status CheckFrames(const std::vector<FeatureSet>& tour) {
-  for (size_t i = 1; i < tour.size(); ++i) {
-    if (tour[i].image_width != tour[0].image_width) {
-      return InvalidArgument("tour image " + std::to_string(i) + " was extracted " +
-                             std::to_string(tour[i].image_width) + " pixels wide, the first " +
-                             std::to_string(tour[0].image_width));
-    }
-    if (tour[i].holistic_grid != tour[0].holistic_grid ||
-        tour[i].holistic.size() != static_cast<size_t>(tour[i].holistic_grid.size())) {
-      return InvalidArgument("tour image " + std::to_string(i) +
-                             " has a holistic descriptor unlike the first image's");
-    }
+Status CheckFrame(const FeatureSet& f, size_t image, const TourScan& scan) {
+  if (f.image_width != scan.frame_width) {
+    return InvalidArgument("tour image " + std::to_string(image) + " was extracted " +
+                           std::to_string(f.image_width) + " pixels wide, the first " +
+                           std::to_string(scan.frame_width));
+  }
+  if (f.holistic_grid != scan.holistic_grid ||
+      f.holistic.size() != static_cast<size_t>(f.holistic_grid.size())) {
+    return InvalidArgument("tour image " + std::to_string(image) +
+                           " has a holistic descriptor unlike the first image's");
   }
   return Status::Ok();
 }
 
-// The tour's holistic descriptors, image after image, into the map.
-void CopyHolistic(const std::vector<FeatureSet>& tour, Map* map) {
-  map->holistic_grid = tour.front().holistic_grid;
-  map->holistic.clear();
-  if (map->holistic_grid.empty()) return;
-  map->holistic.reserve(tour.size() * static_cast<size_t>(map->holistic_grid.size()));
-  for (const FeatureSet& f : tour)
-    map->holistic.insert(map->holistic.end(), f.holistic.begin(), f.holistic.end());
-}
-
-// Drops tracks shorter than `min_length`; with min_length 1, adds every feature that no
-// track holds as a track of its own (a single-view landmark).
-std::vector<Track> ApplyMinTrackLength(std::vector<Track> tracks,
-                                       const std::vector<FeatureSet>& tour, int min_length) {
-  if (min_length == 1) {
-    std::vector<std::vector<bool>> tracked(tour.size());
-    for (size_t i = 0; i < tour.size(); ++i) tracked[i].assign(tour[i].keypoints.size(), false);
-    for (const Track& t : tracks) {
-      for (const TrackObservation& o : t) tracked[o.image][o.feature] = true;
+// Reads the tour once, a batch at a time: checks every frame, keeps the holistic
+// descriptors and links each image to the next (paper II-A), the pairs in parallel.
+StatusOr<TourScan> ScanTour(const TourFeatures& tour, const TrainOptions& options, ThreadPool* pool,
+                            const ProgressFn& progress) {
+  const size_t n = tour.size();
+  TourScan scan;
+  scan.links.next.resize(n - 1);
+  std::vector<TrackingStats> pair_stats(n - 1);
+  for (size_t begin = 0; begin < n; begin += kBatchImages) {
+    const size_t end = std::min(n, begin + kBatchImages);
+    // One image past the batch, the second image of its last pair.
+    SCENELOC_ASSIGN_OR_RETURN(const TourWindow window, tour.Window(begin, std::min(n, end + 1)));
+    if (begin == 0) {
+      scan.frame_width = window[0].image_width;
+      scan.frame_height = window[0].image_height;
+      scan.holistic_grid = window[0].holistic_grid;
     }
-    for (size_t i = 0; i < tour.size(); ++i) {
-      for (size_t f = 0; f < tracked[i].size(); ++f) {
-        if (!tracked[i][f]) tracks.push_back({{uint32_t(i), uint32_t(f)}});
+    for (size_t i = begin; i < end; ++i) {
+      const FeatureSet& f = window[i];
+      SCENELOC_RETURN_IF_ERROR(CheckFrame(f, i, scan));
+      scan.links.feature_counts.push_back(f.size());
+      scan.features += static_cast<size_t>(f.size());
+      scan.holistic.insert(scan.holistic.end(), f.holistic.begin(), f.holistic.end());
+    }
+    const size_t pairs_end = std::min(end, n - 1);
+    pool->ParallelFor(pairs_end - begin, 1, [&](size_t b, size_t e) {
+      for (size_t i = begin + b; i < begin + e; ++i) {
+        scan.links.next[i] = LinkImagePair(window[i], window[i + 1], options, &pair_stats[i]);
       }
-    }
-    return tracks;
+    });
+    Report(progress, "link", pairs_end, n - 1);
   }
-  tracks.erase(
-      std::remove_if(tracks.begin(), tracks.end(),
-                     [&](const Track& t) { return static_cast<int>(t.size()) < min_length; }),
-      tracks.end());
-  return tracks;
+  for (const TrackingStats& s : pair_stats) {
+    scan.tracking.candidate_links += s.candidate_links;
+    scan.tracking.verified_links += s.verified_links;
+    scan.tracking.pairs_unverified += s.pairs_unverified;
+  }
+  return scan;
 }
 
-// Coverage: every tour image with fewer than `min_per_image` candidates gets single-view
-// candidates from its untracked features, strongest response first, until it has that many
-// (or runs out of features).
-size_t AddCoverageTracks(const std::vector<FeatureSet>& tour, int min_per_image,
-                         std::vector<Track>* tracks) {
-  if (min_per_image <= 0) return 0;
-  std::vector<std::vector<bool>> tracked(tour.size());
-  std::vector<int> count(tour.size(), 0);
-  for (size_t i = 0; i < tour.size(); ++i) tracked[i].assign(tour[i].keypoints.size(), false);
-  for (const Track& t : *tracks) {
-    for (const TrackObservation& o : t) {
-      tracked[o.image][o.feature] = true;
-      ++count[o.image];
-    }
-  }
-  size_t added = 0;
-  for (size_t i = 0; i < tour.size(); ++i) {
-    std::vector<uint32_t> free;
-    for (uint32_t f = 0; f < tracked[i].size(); ++f) {
-      if (!tracked[i][f]) free.push_back(f);
-    }
-    const size_t wanted = static_cast<size_t>(std::max(0, min_per_image - count[i]));
-    const size_t take = std::min(wanted, free.size());
-    std::partial_sort(free.begin(), free.begin() + static_cast<std::ptrdiff_t>(take), free.end(),
-                      [&](uint32_t a, uint32_t b) {
-                        return tour[i].keypoints[a].response > tour[i].keypoints[b].response;
-                      });
-    for (size_t k = 0; k < take; ++k) tracks->push_back({{uint32_t(i), free[k]}});
-    added += take;
-  }
-  return added;
-}
-
-void SummariseTracks(const std::vector<Track>& tracks, TrainSummary* s) {
-  s->tracks = tracks.size();
+void SummariseTracks(const std::vector<CandidateChunk>& chunks, TrainSummary* s) {
   size_t total = 0;
-  for (const Track& t : tracks) {
-    total += t.size();
-    s->max_track_length = std::max(s->max_track_length, t.size());
+  for (const CandidateChunk& c : chunks) {
+    s->tracks += c.tracks.size();
+    for (const Track& t : c.tracks) {
+      total += t.size();
+      s->max_track_length = std::max(s->max_track_length, t.size());
+    }
   }
-  s->mean_track_length = tracks.empty() ? 0.0 : static_cast<double>(total) / tracks.size();
+  s->mean_track_length = s->tracks == 0 ? 0.0 : static_cast<double>(total) / s->tracks;
 }
 
 void SummariseImages(const Map& map, TrainSummary* s) {
@@ -175,105 +131,127 @@ void SummariseImages(const Map& map, TrainSummary* s) {
       static_cast<double>(map.image_landmarks.size()) / std::max(1, map.num_images());
 }
 
-// The tracks the landmarks come from: tracked between images, kept by length and topped
-// up for coverage. Fills the tracking figures of `s`.
-StatusOr<std::vector<Track>> TrackLandmarks(const std::vector<FeatureSet>& tour,
-                                            const TrainOptions& options, ThreadPool* pool,
-                                            const ProgressFn& progress, TrainSummary* s) {
-  Stopwatch watch;
-  TrackingStats tracking;
-  std::vector<Track> tracks = ApplyMinTrackLength(BuildTracks(tour, options, pool, &tracking), tour,
-                                                  options.min_track_length);
-  s->candidate_links = tracking.candidate_links;
-  s->verified_links = tracking.verified_links;
-  SummariseTracks(tracks, s);
-  s->coverage_landmarks = AddCoverageTracks(tour, options.min_landmarks_per_image, &tracks);
-  s->track_seconds = watch.Seconds();
-  if (progress) progress("track", tour.size() - 1, tour.size() - 1);
-  if (tracks.empty()) {
-    return FailedPrecondition(
-        "no feature could be tracked between consecutive tour images; "
-        "are the images of one route, in order?");
-  }
-  return tracks;
-}
+// Everything the chunk passes share.
+struct ChunkContext {
+  const TourFeatures& tour;
+  const std::vector<std::string>& image_names;
+  const TrainOptions& options;
+  const TourScan& scan;
+  ThreadPool* pool;
+  const ProgressFn& progress;
+};
 
-// The candidate map: one landmark fused from each track, with its image lists but no
-// neighbours yet; validated and finalised.
-StatusOr<Map> FuseCandidates(const std::vector<Track>& tracks, const std::vector<FeatureSet>& tour,
-                             const std::vector<std::string>& image_names,
-                             const TrainOptions& options, TrainSummary* s) {
-  Stopwatch watch;
-  Map candidates;
-  candidates.options = options;
-  candidates.image_names = image_names;
-  candidates.image_width = tour.front().image_width;
-  candidates.image_height = tour.front().image_height;
-  s->frame_width = candidates.image_width;
-  s->frame_height = candidates.image_height;
-  CopyHolistic(tour, &candidates);
-  FuseLandmarks(tracks, tour, options, &candidates);
-  BuildImageLists(&candidates);
-  candidates.neighbour_offsets.assign(tracks.size() + 1, 0);
-  SCENELOC_RETURN_IF_ERROR(candidates.Validate());
-  candidates.Finalize();
-  s->landmarks_before_selection = tracks.size();
-  s->fuse_seconds = watch.Seconds();
-  return candidates;
+// The first pass over the chunks: tops each up with its single-view candidates, fuses its
+// candidates from its window and measures their quality Q there (paper IV, eq. 4).
+// Returns Q of every candidate, in chunk order; numbers the chunks' candidates.
+StatusOr<std::vector<float>> MeasureQuality(const ChunkContext& c, const TrackedFeatures& tracked,
+                                            std::vector<CandidateChunk>* chunks, TrainSummary* s) {
+  std::vector<float> quality;
+  size_t images_done = 0, images_total = 0;
+  for (const CandidateChunk& chunk : *chunks) images_total += chunk.window_end() - chunk.begin;
+  for (CandidateChunk& chunk : *chunks) {
+    // The window before the single-view candidates, which lie within [begin, end) anyway.
+    SCENELOC_ASSIGN_OR_RETURN(const TourWindow window,
+                              c.tour.Window(chunk.begin, chunk.window_end()));
+    s->coverage_landmarks += AddSingleViewCandidates(window, tracked, c.options, &chunk);
+    chunk.first_candidate = quality.size();
+    if (chunk.tracks.empty()) continue;
+    SCENELOC_ASSIGN_OR_RETURN(const Map candidates,
+                              FuseCandidates(chunk.tracks, window, c.image_names,
+                                             c.scan.frame_width, c.scan.frame_height, c.options));
+    const std::vector<float> q =
+        ComputeQuality(candidates, chunk.tracks, window, c.options.quality_s_min,
+                       c.options.quality_fp_prior, c.pool, [&](size_t done, size_t) {
+                         Report(c.progress, "quality", images_done + done, images_total);
+                       });
+    images_done += window.size();
+    quality.insert(quality.end(), q.begin(), q.end());
+  }
+  if (c.options.min_track_length == 1) {
+    // Every untracked feature is a track of its own: counted as tracks, not as coverage.
+    const size_t singles = s->coverage_landmarks;
+    s->mean_track_length =
+        (s->mean_track_length * static_cast<double>(s->tracks) + static_cast<double>(singles)) /
+        std::max<double>(1.0, static_cast<double>(s->tracks + singles));
+    if (singles > 0) s->max_track_length = std::max<size_t>(s->max_track_length, 1);
+    s->tracks += singles;
+    s->coverage_landmarks = 0;
+  }
+  return quality;
 }
 
 // The candidates worth keeping (paper II-C): by quality Q, at most eta per image, at least
-// q_min. Fills candidates->quality on the way.
-StatusOr<std::vector<uint32_t>> SelectCandidates(const std::vector<Track>& tracks,
-                                                 const std::vector<FeatureSet>& tour,
-                                                 const TrainOptions& options, ThreadPool* pool,
-                                                 const ProgressFn& progress, Map* candidates,
-                                                 TrainSummary* s) {
-  Stopwatch watch;
-  candidates->quality =
-      ComputeQuality(*candidates, tracks, tour, options.quality_s_min, options.quality_fp_prior,
-                     pool, [&](size_t done, size_t total) {
-                       if (progress) progress("quality", done, total);
-                     });
-  s->quality_seconds = watch.Seconds();
-
-  watch.Reset();
-  std::vector<std::vector<uint32_t>> landmark_images(tracks.size());
-  for (size_t t = 0; t < tracks.size(); ++t) {
-    for (const TrackObservation& o : tracks[t]) landmark_images[t].push_back(o.image);
+// q_min. Returns their indices, ascending.
+StatusOr<std::vector<uint32_t>> SelectCandidates(const std::vector<CandidateChunk>& chunks,
+                                                 const std::vector<float>& quality,
+                                                 const TrainOptions& options, size_t num_images) {
+  std::vector<std::vector<uint32_t>> landmark_images;
+  landmark_images.reserve(quality.size());
+  for (const CandidateChunk& chunk : chunks) {
+    for (const Track& t : chunk.tracks) {
+      std::vector<uint32_t> images;
+      for (const TrackObservation& o : t) images.push_back(o.image);
+      landmark_images.push_back(std::move(images));
+    }
   }
-  const std::vector<uint32_t> keep =
-      SelectLandmarks(landmark_images, candidates->quality, static_cast<int>(tour.size()),
-                      options.eta, options.q_min);
-  s->select_seconds = watch.Seconds();
+  std::vector<uint32_t> keep = SelectLandmarks(
+      landmark_images, quality, static_cast<int>(num_images), options.eta, options.q_min);
   if (keep.empty()) {
     return FailedPrecondition("no landmark reached q_min = " + std::to_string(options.q_min));
   }
   return keep;
 }
 
-// The map of the kept landmarks: their neighbours, provenance and calibration; validated
-// and finalised.
-StatusOr<Map> BuildFinalMap(const Map& candidates, const std::vector<uint32_t>& keep,
-                            const TrainOptions& options, ThreadPool* pool, TrainSummary* s) {
-  Stopwatch watch;
-  Map map = SubsetLandmarks(candidates, keep);
-  BuildNeighbours(options, &map);
-  s->cooccurrence_seconds = watch.Seconds();
-  SummariseImages(map, s);
+// The second pass over the chunks: fuses the kept candidates of each again from its window
+// into the map, with their quality.
+Status FuseKept(const ChunkContext& c, const std::vector<CandidateChunk>& chunks,
+                const std::vector<uint32_t>& keep, const std::vector<float>& quality, Map* map) {
+  ReserveLandmarks(keep.size(), map);
+  auto next = keep.begin();
+  for (const CandidateChunk& chunk : chunks) {
+    const size_t last = chunk.first_candidate + chunk.tracks.size();
+    std::vector<Track> kept;
+    std::vector<float> kept_quality;
+    for (; next != keep.end() && *next < last; ++next) {
+      kept.push_back(chunk.tracks[*next - chunk.first_candidate]);
+      kept_quality.push_back(quality[*next]);
+    }
+    if (!kept.empty()) {
+      size_t window_end = chunk.begin + 1;
+      for (const Track& t : kept) window_end = std::max<size_t>(window_end, t.back().image + 1);
+      SCENELOC_ASSIGN_OR_RETURN(const TourWindow window, c.tour.Window(chunk.begin, window_end));
+      Map part;
+      FuseLandmarks(kept, window, c.options, &part);
+      part.quality = std::move(kept_quality);
+      AppendLandmarks(part, map);
+    }
+    Report(c.progress, "fuse", chunk.end, c.tour.size());
+  }
+  return Status::Ok();
+}
 
-  MapProvenance& p = map.provenance;
+// Neighbours, image lists, provenance and calibration of the fused map; validated and
+// finalised.
+Status FinishMap(const TrainOptions& options, ThreadPool* pool, TrainSummary* s, Map* map) {
+  Stopwatch watch;
+  BuildNeighbours(options, map);
+  s->cooccurrence_seconds = watch.Seconds();
+  SummariseImages(*map, s);
+  MapProvenance& p = map->provenance;
   p.created_utc = UtcNow();
   p.tool_version = "0.1.0";
   p.num_features = static_cast<uint32_t>(s->features);
   p.num_tracks = static_cast<uint32_t>(s->tracks);
   p.num_candidates = static_cast<uint32_t>(s->landmarks_before_selection);
   watch.Reset();
-  CalibrateMap(&map, pool);
+  CalibrateMap(map, pool);
   s->calibration_seconds = watch.Seconds();
-  SCENELOC_RETURN_IF_ERROR(map.Validate());
-  map.Finalize();
-  return map;
+  watch.Reset();
+  BuildPlaceIndex(map, pool);
+  s->index_seconds = watch.Seconds();
+  SCENELOC_RETURN_IF_ERROR(map->Validate());
+  map->Finalize();
+  return Status::Ok();
 }
 
 }  // namespace
@@ -320,24 +298,61 @@ StatusOr<std::vector<FeatureSet>> ExtractImages(const std::vector<std::string>& 
   return features;
 }
 
+namespace {
+
+// Where the images of a tour whose first image is `first` are extracted (TourTarget for the
+// first's size; others as queries into its frame).
+StatusOr<TargetFn> TourTargets(const std::string& first_path, const ExtractorOptions& options) {
+  SCENELOC_ASSIGN_OR_RETURN(const cv::Mat first, ReadImageFile(first_path));
+  const ExtractionTarget frame = TourTarget(first.cols, first.rows, options);
+  const cv::Size size = first.size();
+  return TargetFn([frame, size](int width, int height) {
+    if (width == size.width && height == size.height) return frame;
+    return QueryTarget(width, height, frame.width, frame.holistic);
+  });
+}
+
+}  // namespace
+
 StatusOr<std::vector<FeatureSet>> ExtractFolder(const std::vector<std::string>& image_paths,
                                                 const ExtractorOptions& options, int threads,
                                                 const ProgressFn& progress, size_t* mixed_sizes) {
   SCENELOC_RETURN_IF_ERROR(options.Validate());
   if (image_paths.empty()) return FailedPrecondition("no tour image to extract");
-  SCENELOC_ASSIGN_OR_RETURN(const cv::Mat first, ReadImageFile(image_paths[0]));
-  const ExtractionTarget frame = TourTarget(first.cols, first.rows, options);
-  const auto target = [&](int width, int height) {
-    if (width == first.cols && height == first.rows) return frame;
-    return QueryTarget(width, height, frame.width, frame.holistic);
-  };
+  SCENELOC_ASSIGN_OR_RETURN(const TargetFn target, TourTargets(image_paths[0], options));
   return ExtractImages(image_paths, options, target, threads, progress, mixed_sizes);
 }
 
-StatusOr<TrainResult> TrainFromFeatures(const std::vector<FeatureSet>& tour,
-                                        const std::vector<std::string>& image_names,
-                                        const TrainOptions& options, int threads,
-                                        const ProgressFn& progress) {
+Status ExtractToSpool(const std::vector<std::string>& image_paths, const ExtractorOptions& options,
+                      int threads, const ProgressFn& progress, FeatureSpool* spool,
+                      size_t* mixed_sizes) {
+  SCENELOC_RETURN_IF_ERROR(options.Validate());
+  if (image_paths.empty()) return FailedPrecondition("no tour image to extract");
+  SCENELOC_ASSIGN_OR_RETURN(const TargetFn target, TourTargets(image_paths[0], options));
+  size_t mixed = 0;
+  const size_t batch = kBatchImages * static_cast<size_t>(std::max(1, threads));
+  for (size_t begin = 0; begin < image_paths.size(); begin += batch) {
+    const size_t end = std::min(image_paths.size(), begin + batch);
+    const std::vector<std::string> paths(image_paths.begin() + static_cast<std::ptrdiff_t>(begin),
+                                         image_paths.begin() + static_cast<std::ptrdiff_t>(end));
+    size_t batch_mixed = 0;
+    const auto batch_progress = [&](const std::string& stage, size_t done, size_t) {
+      Report(progress, stage.c_str(), begin + done, image_paths.size());
+    };
+    SCENELOC_ASSIGN_OR_RETURN(
+        const std::vector<FeatureSet> features,
+        ExtractImages(paths, options, target, threads, batch_progress, &batch_mixed));
+    for (const FeatureSet& f : features) SCENELOC_RETURN_IF_ERROR(spool->Append(f));
+    mixed += batch_mixed;
+  }
+  if (mixed_sizes != nullptr) *mixed_sizes = mixed;
+  return Status::Ok();
+}
+
+StatusOr<TrainResult> TrainFromTour(const TourFeatures& tour,
+                                    const std::vector<std::string>& image_names,
+                                    const TrainOptions& options, int threads,
+                                    const ProgressFn& progress) {
   SCENELOC_RETURN_IF_ERROR(options.Validate());
   if (tour.size() < 2) {
     return FailedPrecondition("a tour needs at least 2 images, got " + std::to_string(tour.size()));
@@ -346,39 +361,89 @@ StatusOr<TrainResult> TrainFromFeatures(const std::vector<FeatureSet>& tour,
   TrainResult result;
   TrainSummary& s = result.summary;
   s.images = tour.size();
-  for (const FeatureSet& f : tour) s.features += static_cast<size_t>(f.size());
   ThreadPool pool(threads);
-  SCENELOC_ASSIGN_OR_RETURN(const std::vector<Track> tracks,
-                            TrackLandmarks(tour, options, &pool, progress, &s));
-  SCENELOC_RETURN_IF_ERROR(CheckFrames(tour));
-  SCENELOC_ASSIGN_OR_RETURN(Map candidates, FuseCandidates(tracks, tour, image_names, options, &s));
-  SCENELOC_ASSIGN_OR_RETURN(
-      const std::vector<uint32_t> keep,
-      SelectCandidates(tracks, tour, options, &pool, progress, &candidates, &s));
-  SCENELOC_ASSIGN_OR_RETURN(result.map, BuildFinalMap(candidates, keep, options, &pool, &s));
+
+  Stopwatch watch;
+  SCENELOC_ASSIGN_OR_RETURN(TourScan scan, ScanTour(tour, options, &pool, progress));
+  s.features = scan.features;
+  s.candidate_links = scan.tracking.candidate_links;
+  s.verified_links = scan.tracking.verified_links;
+  s.frame_width = scan.frame_width;
+  s.frame_height = scan.frame_height;
+  TrackedFeatures tracked;
+  std::vector<CandidateChunk> chunks =
+      PlanChunks(ChainTracks(scan.links), scan.links, options.min_track_length,
+                 options.quality_window, &tracked);
+  scan.links.next.clear();
+  scan.links.next.shrink_to_fit();
+  SummariseTracks(chunks, &s);
+  s.quality_windows = chunks.size();
+  s.track_seconds = watch.Seconds();
+
+  watch.Reset();
+  const ChunkContext context{tour, image_names, options, scan, &pool, progress};
+  SCENELOC_ASSIGN_OR_RETURN(const std::vector<float> quality,
+                            MeasureQuality(context, tracked, &chunks, &s));
+  if (quality.empty()) {
+    return FailedPrecondition(
+        "no feature could be tracked between consecutive tour images; "
+        "are the images of one route, in order?");
+  }
+  s.landmarks_before_selection = quality.size();
+  s.quality_seconds = watch.Seconds();
+
+  watch.Reset();
+  SCENELOC_ASSIGN_OR_RETURN(const std::vector<uint32_t> keep,
+                            SelectCandidates(chunks, quality, options, tour.size()));
+  s.select_seconds = watch.Seconds();
+
+  watch.Reset();
+  Map& map = result.map;
+  map.options = options;
+  map.image_names = image_names;
+  map.image_width = scan.frame_width;
+  map.image_height = scan.frame_height;
+  map.holistic_grid = scan.holistic_grid;
+  map.holistic = std::move(scan.holistic);
+  SCENELOC_RETURN_IF_ERROR(FuseKept(context, chunks, keep, quality, &map));
+  s.fuse_seconds = watch.Seconds();
+  chunks.clear();
+  SCENELOC_RETURN_IF_ERROR(FinishMap(options, &pool, &s, &map));
   return result;
 }
 
+StatusOr<TrainResult> TrainFromFeatures(const std::vector<FeatureSet>& tour,
+                                        const std::vector<std::string>& image_names,
+                                        const TrainOptions& options, int threads,
+                                        const ProgressFn& progress) {
+  return TrainFromTour(TourInMemory(tour), image_names, options, threads, progress);
+}
+
 StatusOr<TrainResult> TrainFromFolder(const std::string& tour_dir, const TrainOptions& options,
-                                      int threads, const ProgressFn& progress) {
+                                      int threads, const ProgressFn& progress,
+                                      const std::string& spool_dir) {
   SCENELOC_RETURN_IF_ERROR(options.Validate());
   SCENELOC_ASSIGN_OR_RETURN(const std::vector<std::string> paths, ListImageFiles(tour_dir));
   if (paths.size() < 2) {
     return FailedPrecondition("tour folder '" + tour_dir + "' holds " +
                               std::to_string(paths.size()) + " image; a tour needs at least 2");
   }
+  std::error_code ec;
+  const std::string dir =
+      spool_dir.empty() ? std::filesystem::temp_directory_path(ec).string() : spool_dir;
+  SCENELOC_ASSIGN_OR_RETURN(const std::unique_ptr<FeatureSpool> spool, FeatureSpool::Create(dir));
   Stopwatch watch;
   size_t mixed_sizes = 0;
-  SCENELOC_ASSIGN_OR_RETURN(
-      const std::vector<FeatureSet> tour,
-      ExtractFolder(paths, options.extractor, threads, progress, &mixed_sizes));
+  SCENELOC_RETURN_IF_ERROR(
+      ExtractToSpool(paths, options.extractor, threads, progress, spool.get(), &mixed_sizes));
   const double extract_seconds = watch.Seconds();
   std::vector<std::string> names;
   for (const std::string& path : paths) names.push_back(FileName(path));
   SCENELOC_ASSIGN_OR_RETURN(TrainResult result,
-                            TrainFromFeatures(tour, names, options, threads, progress));
+                            TrainFromTour(*spool, names, options, threads, progress));
   result.summary.extract_seconds = extract_seconds;
   result.summary.mixed_size_images = mixed_sizes;
+  result.summary.spool_bytes = spool->bytes();
   result.map.provenance.tour_dir = tour_dir;
   return result;
 }

@@ -61,6 +61,7 @@ Map MakeMapWithDistinctOptions() {
   o.quality_fp_prior = 1.1;
   o.eta = 9;
   o.q_min = 0.012;
+  o.quality_window = 77;
   o.max_neighbours = 23;
   o.tolerance = 3;
   o.confidence_temperature = 0.29;
@@ -154,6 +155,26 @@ TEST_F(MapIoTest, MissingFileIsNotFound) {
 // A folder where the file should be is an IoError.
 TEST_F(MapIoTest, DirectoryIsIoError) {
   ExpectLoadFailsAt(dir_.string(), StatusCode::kIoError, "not a regular file");
+}
+
+// A map written in format version 3 (tests/data/v3_map.scnl, before the quality window was
+// stored) loads with a window of 0, the whole tour its Q was measured over, and is saved
+// again as today's.
+TEST(MapIoCompatibilityTest, VersionThreeMapLoads) {
+  MapFileInfo info;
+  auto map = LoadMap(SCENELOC_TEST_DATA "/v3_map.scnl", &info);
+  ASSERT_TRUE(map.ok()) << map.status().ToString();
+  EXPECT_EQ(info.format_version, 3u);
+  EXPECT_EQ(map->num_images(), 6);
+  EXPECT_EQ(map->options.quality_window, 0);
+  EXPECT_EQ(map->options.eta, 30);
+  EXPECT_EQ(map->options.max_neighbours, 24);
+  EXPECT_TRUE(map->calibration.valid);
+  const std::string bytes = SerializeMap(*map);
+  EXPECT_EQ(GetU32(bytes, 8), kMapFormatVersion);
+  auto again = ParseMap(bytes, "resaved");
+  ASSERT_TRUE(again.ok()) << again.status().ToString();
+  ExpectMapsEqual(*map, *again);
 }
 
 // A map written in format version 2 (tests/data/v2_map.scnl, before the octave layers

@@ -35,7 +35,9 @@ Map Read(const std::string& bytes, uint32_t version, V1Fields* v1) {
 
 // A version-2 payload read back gives every stored field of the map written.
 TEST(MapLayoutTest, VersionTwoRoundTrips) {
-  const Map map = test::MakeRandomMap(6, 40, 3);
+  Map map = test::MakeRandomMap(6, 40, 3);
+  map.options.quality_window = 0;  // what version 2 (and 3) maps were made with
+  map.options.place_index_min_locations = 0;
   V1Fields unused;
   Map read = Read(Write(map, 2), 2, &unused);
   read.Finalize();
@@ -65,6 +67,21 @@ TEST(MapLayoutTest, VersionTwoLeavesOutTheOctaveLayers) {
   EXPECT_EQ(read.options.extractor.octave_layers, 3);
   EXPECT_EQ(read.options.extractor.sigma, map.options.extractor.sigma);
   EXPECT_EQ(read.options.extractor.max_image_side, map.options.extractor.max_image_side);
+}
+
+// Version 3 has neither the quality window nor the place index: read back, the window is the
+// whole tour (0), the map was made without an index and has none.
+TEST(MapLayoutTest, VersionThreeLeavesOutTheWindowAndThePlaceIndex) {
+  Map map = test::MakeRandomMap(4, 20, 6);
+  map.options.quality_window = 64;
+  const std::string v3_bytes = Write(map, 3);
+  EXPECT_LT(v3_bytes.size(), Write(map, 4).size());
+  V1Fields unused;
+  const Map read = Read(v3_bytes, 3, &unused);
+  EXPECT_EQ(read.options.quality_window, 0);
+  EXPECT_EQ(read.options.place_index_min_locations, 0);
+  EXPECT_FALSE(read.has_place_index());
+  EXPECT_EQ(read.options.eta, map.options.eta);
 }
 
 // The payload starts with extractor.max_features (i32), then working_size (i32), then

@@ -61,7 +61,8 @@ Scene MakeScene(int landmarks, int first_random, float size_ratio, uint32_t seed
 Verification Verify(const Scene& s, VerifyOptions options = {},
                     VerifyEstimator estimator = VerifyEstimator::kUsac) {
   options.estimator = estimator;
-  return VerifyCandidate(s.query, s.map, 0, s.best_score, s.best_feature, options);
+  return VerifyCandidate(s.query, s.map, 0, LandmarkScope::Whole(s.map), s.best_score,
+                         s.best_feature, options);
 }
 
 // Every property holds for both estimators (USAC, the default, and classic RANSAC).

@@ -220,6 +220,9 @@ void ExpectOptionsEqual(const TrainOptions& a, const TrainOptions& b) {
   EXPECT_EQ(a.quality_fp_prior, b.quality_fp_prior);
   EXPECT_EQ(a.eta, b.eta);
   EXPECT_EQ(a.q_min, b.q_min);
+  EXPECT_EQ(a.quality_window, b.quality_window);
+  EXPECT_EQ(a.place_index_min_locations, b.place_index_min_locations);
+  EXPECT_EQ(a.place_index_dims, b.place_index_dims);
   EXPECT_EQ(a.max_neighbours, b.max_neighbours);
   EXPECT_EQ(a.tolerance, b.tolerance);
   EXPECT_EQ(a.confidence_temperature, b.confidence_temperature);
@@ -281,6 +284,17 @@ void ExpectMapsEqual(const Map& a, const Map& b) {
   ExpectArraysEqual("image_offsets", a.image_offsets, b.image_offsets);
   ExpectArraysEqual("image_landmarks", a.image_landmarks, b.image_landmarks);
   ExpectArraysEqual("local_mean_sqnorm", a.local_mean_sqnorm, b.local_mean_sqnorm);
+  const PlaceIndex &p = a.place_index, &q = b.place_index;
+  EXPECT_EQ(p.vocabulary.coarse, q.vocabulary.coarse);
+  EXPECT_EQ(p.vocabulary.fine, q.vocabulary.fine);
+  EXPECT_TRUE(p.vocabulary.centroids == q.vocabulary.centroids);
+  ExpectArraysEqual("landmark_word", p.landmark_word, q.landmark_word);
+  EXPECT_EQ(p.holistic.max_shift, q.holistic.max_shift);
+  EXPECT_EQ(p.holistic.dims, q.holistic.dims);
+  ExpectArraysEqual("holistic_mean", p.holistic.mean, q.holistic.mean);
+  ExpectArraysEqual("holistic_axes", p.holistic.axes, q.holistic.axes);
+  ExpectArraysEqual("holistic_projected", p.holistic.projected, q.holistic.projected);
+  ExpectArraysEqual("holistic_residual", p.holistic.residual, q.holistic.residual);
 }
 
 }  // namespace sceneloc::test

@@ -18,7 +18,7 @@ TEST(LandmarkBuilderTest, FusesMeanDmaxAndFlooredVariance) {
   }
   TrainOptions options;
   Map map;
-  FuseLandmarks({{{0, 0}, {1, 0}}}, tour, options, &map);
+  FuseLandmarks({{{0, 0}, {1, 0}}}, WholeTour(tour), options, &map);
   ASSERT_EQ(map.num_landmarks(), 1);
   EXPECT_FLOAT_EQ(map.local_mean(0, 0), 0.5f);
   EXPECT_FLOAT_EQ(map.local_mean(0, 1), 0.5f);

@@ -49,12 +49,12 @@ TEST(QualityTest, HandComputedEquationFour) {
     }
   }
   const std::vector<Track> tracks = {{{0, 0}, {1, 0}}, {{0, 1}, {1, 1}}};
-  const auto q = ComputeQuality(map, tracks, tour, 0.3, 1.0, nullptr, nullptr);
+  const auto q = ComputeQuality(map, tracks, WholeTour(tour), 0.3, 1.0, nullptr, nullptr);
   ASSERT_EQ(q.size(), 2u);
   EXPECT_NEAR(q[0], 1.0f, 1e-5);
   EXPECT_NEAR(q[1], 2.0f, 1e-5);
   // The prior is what keeps g1's ratio finite: with prior 0.5, Q(g1) = 2 / 0.5 = 4.
-  const auto q_half = ComputeQuality(map, tracks, tour, 0.3, 0.5, nullptr, nullptr);
+  const auto q_half = ComputeQuality(map, tracks, WholeTour(tour), 0.3, 0.5, nullptr, nullptr);
   EXPECT_NEAR(q_half[0], 2.0f / 1.5f, 1e-5);
   EXPECT_NEAR(q_half[1], 4.0f, 1e-5);
 }

@@ -1,11 +1,15 @@
-// Training end to end on generated tours: coverage of images that tracking cannot link.
+// Training end to end on generated tours: coverage of images that tracking cannot link, the
+// quality window, and a tour spooled to disk against one held in memory.
 #include "common/training/trainer.h"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <filesystem>
+#include <map>
 
 #include "common/features/extractor.h"
+#include "common/map/map_io.h"
 #include "common/synthetic/tour_generator.h"
 
 namespace sceneloc {
@@ -75,6 +79,94 @@ TEST_F(CoverageTest, TopsUpTheImageTrackingCouldNotLink) {
   EXPECT_GE(LandmarksOf(covered->map, 5), 40u);
   EXPECT_GE(s.landmarks_per_image_min, 40u);
   EXPECT_TRUE(s.images_without_landmarks.empty());
+}
+
+// A 12-image tour, its features in memory and its JPEG files in a folder.
+class WindowTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    tour_ = new std::vector<FeatureSet>(TourFeatures(3, 12, TrainOptions().extractor));
+    for (int i = 0; i < 12; ++i) names_.push_back(TourImageName(i));
+  }
+  static void TearDownTestSuite() {
+    delete tour_;
+    tour_ = nullptr;
+  }
+  static TrainResult Train(int window) {
+    TrainOptions options;
+    options.quality_window = window;
+    auto trained = TrainFromFeatures(*tour_, names_, options, 2, nullptr);
+    EXPECT_TRUE(trained.ok()) << trained.status().ToString();
+    return std::move(trained).value();
+  }
+  // The map's bytes with the settings and provenance that differ between two runs aligned.
+  static std::string Bytes(Map map) {
+    map.options.quality_window = 0;
+    map.provenance = MapProvenance();
+    return SerializeMap(map);
+  }
+  static std::vector<FeatureSet>* tour_;
+  static std::vector<std::string> names_;
+};
+std::vector<FeatureSet>* WindowTest::tour_ = nullptr;
+std::vector<std::string> WindowTest::names_;
+
+// A window as long as the tour or longer is the paper's single pass over the whole tour: the
+// same map as a window of 0.
+TEST_F(WindowTest, AWindowAsLongAsTheTourIsTheWholeTour) {
+  const TrainResult whole = Train(0);
+  EXPECT_EQ(whole.summary.quality_windows, 1u);
+  for (int window : {12, 1000}) {
+    const TrainResult same = Train(window);
+    EXPECT_EQ(same.summary.quality_windows, 1u);
+    EXPECT_EQ(Bytes(same.map), Bytes(whole.map)) << "window " << window;
+  }
+}
+
+// A shorter window measures Q chunk by chunk: the same candidates (tracks and coverage do
+// not depend on it), their quality measured in ceil(12 / window) chunks, so some Q and the
+// selection change; every image keeps its landmarks.
+TEST_F(WindowTest, AShorterWindowMeasuresQualityChunkByChunk) {
+  const TrainResult whole = Train(0);
+  const TrainResult chunked = Train(5);
+  EXPECT_EQ(chunked.summary.quality_windows, 3u);
+  EXPECT_EQ(chunked.summary.landmarks_before_selection, whole.summary.landmarks_before_selection);
+  EXPECT_EQ(chunked.summary.tracks, whole.summary.tracks);
+  EXPECT_EQ(chunked.map.options.quality_window, 5);
+  EXPECT_NE(Bytes(chunked.map), Bytes(whole.map)) << "the window changed nothing";
+  EXPECT_TRUE(chunked.map.Validate().ok());
+  EXPECT_GE(chunked.summary.landmarks_per_image_min, 40u);
+  // Within 10% of as many landmarks: the windows rank candidates much as the whole tour does.
+  EXPECT_NEAR(static_cast<double>(chunked.map.num_landmarks()), whole.map.num_landmarks(),
+              0.1 * whole.map.num_landmarks());
+}
+
+// sceneloc-train spools a folder's features to disk and trains from the spool: the same map
+// as training from the same images' features in memory. Progress reaches the end of every
+// stage, in order.
+TEST_F(WindowTest, SpooledFolderTrainsAsInMemory) {
+  const std::filesystem::path dir = std::filesystem::path(::testing::TempDir()) / "window_tour";
+  std::filesystem::remove_all(dir);
+  TourOptions tour;
+  tour.num_locations = 12;
+  tour.image_width = 480;
+  tour.image_height = 270;
+  tour.seed = 3;
+  ASSERT_TRUE(WriteTour(tour, dir.string(), kTrainingPass).ok());
+  std::vector<std::string> stages;
+  std::map<std::string, std::pair<size_t, size_t>> last;
+  const ProgressFn progress = [&](const std::string& stage, size_t done, size_t total) {
+    if (stages.empty() || stages.back() != stage) stages.push_back(stage);
+    last[stage] = {done, total};
+  };
+  TrainOptions options;
+  options.quality_window = 5;
+  auto spooled = TrainFromFolder(dir.string(), options, 2, progress, ::testing::TempDir());
+  ASSERT_TRUE(spooled.ok()) << spooled.status().ToString();
+  EXPECT_GT(spooled->summary.spool_bytes, 0u);
+  EXPECT_EQ(Bytes(spooled->map), Bytes(Train(5).map));
+  EXPECT_EQ(stages, (std::vector<std::string>{"extract", "link", "quality", "fuse"}));
+  for (const auto& [stage, counts] : last) EXPECT_EQ(counts.first, counts.second) << stage;
 }
 
 }  // namespace

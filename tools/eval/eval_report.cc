@@ -165,6 +165,7 @@ nlohmann::json ReportJson(const EvalReport& r) {
       ConfidenceModelName(SupportedModel(map, *ParseConfidenceModel(options.confidence_model)));
   j["timing_ms"] = {{"extract", PercentilesJson(s.extract_ms)},
                     {"match", PercentilesJson(s.ours.match_ms)},
+                    {"place", PercentilesJson(s.place_ms)},
                     {"descriptor", PercentilesJson(s.descriptor_ms)},
                     {"neighbourhood", PercentilesJson(s.neighbourhood_ms)},
                     {"likelihood", PercentilesJson(s.likelihood_ms)},
@@ -216,9 +217,9 @@ void PrintReport(const EvalReport& r) {
   std::printf("extract ms per query: median %.1f, p90 %.1f\n", s.extract_ms.median,
               s.extract_ms.p90);
   std::printf(
-      "match stages, median ms: descriptor %.2f, neighbourhood %.2f, likelihood %.2f, "
-      "holistic %.2f, verify %.2f\n",
-      s.descriptor_ms.median, s.neighbourhood_ms.median, s.likelihood_ms.median,
+      "match stages, median ms: place %.2f, descriptor %.2f, neighbourhood %.2f, "
+      "likelihood %.2f, holistic %.2f, verify %.2f\n",
+      s.place_ms.median, s.descriptor_ms.median, s.neighbourhood_ms.median, s.likelihood_ms.median,
       s.holistic_ms.median, s.verify_ms.median);
 }
 

@@ -163,6 +163,7 @@ EvalSummary Summarise(const std::vector<QueryOutcome>& outcomes, bool with_basel
     return ComputePercentiles(values);
   };
   s.extract_ms = stage([](const QueryOutcome& o) { return o.extract_ms; });
+  s.place_ms = stage([](const QueryOutcome& o) { return o.stages.place_ms; });
   s.descriptor_ms = stage([](const QueryOutcome& o) { return o.stages.descriptor_ms; });
   s.neighbourhood_ms = stage([](const QueryOutcome& o) { return o.stages.neighbourhood_ms; });
   s.likelihood_ms = stage([](const QueryOutcome& o) { return o.stages.likelihood_ms; });

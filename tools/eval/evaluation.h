@@ -96,7 +96,7 @@ struct EvalSummary {
   Percentiles extract_ms;
   // Ours, per matching stage: descriptor (S_D), neighbourhood (S_N), likelihood, holistic,
   // verify.
-  Percentiles descriptor_ms, neighbourhood_ms, likelihood_ms, holistic_ms, verify_ms;
+  Percentiles place_ms, descriptor_ms, neighbourhood_ms, likelihood_ms, holistic_ms, verify_ms;
 };
 
 MethodSummary SummariseMethod(const std::vector<QueryOutcome>& outcomes, Method method,

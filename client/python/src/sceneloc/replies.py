@@ -74,12 +74,13 @@ class Timings:
     holistic_ms: float
     verify_ms: float
     total_ms: float  # received by the server's I/O thread to reply built
+    place_ms: float  # the coarse stage picking candidate places (0 on maps searched whole)
 
     @classmethod
     def from_proto(cls, m: pb.Timings) -> Timings:
         return cls(
             m.queue_ms, m.decode_ms, m.extract_ms, m.descriptor_ms, m.neighbourhood_ms,
-            m.likelihood_ms, m.holistic_ms, m.verify_ms, m.total_ms,
+            m.likelihood_ms, m.holistic_ms, m.verify_ms, m.total_ms, m.place_ms,
         )
 
 

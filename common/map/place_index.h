@@ -1,0 +1,103 @@
+// The place index of a map: what the coarse stage of recognition needs to pick, from a
+// map of any size, the few tour locations a query can be at, so that the paper's S_D * S_N,
+// the likelihood and verification run over those alone (common/matching/place_search.h).
+// This is our departure from the paper, whose every query scores every landmark: the
+// coarse-to-fine pattern of retrieval at scale (an inverted file of visual words, as DBoW2
+// and FAB-MAP 2.0 use, and a global descriptor, as hloc does), here with both of the
+// evidence kinds sceneloc already fuses:
+//
+//   - a vocabulary of visual words over the landmarks' local descriptors (two levels of
+//     k-means: `coarse` cells of `fine` words each) and the word of every landmark: a
+//     query's features vote, through an inverted file, for the locations whose landmarks
+//     share their words (tf-idf);
+//   - the holistic descriptor of every location projected, for each lateral shift the
+//     holistic comparison allows, onto the principal axes of the tour's descriptors at that
+//     shift: a query's approximate holistic distance to every location costs a few dozen
+//     multiply-adds a location instead of a few thousand.
+//
+// Built at training (common/training/place_index_builder.h) and stored in the map; the
+// inverted file is derived when the map is finalised. A map without one (small maps, maps
+// of format version <= 4) is searched whole.
+//
+// Thread-safe once built: read-only.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "common/features/feature_set.h"
+#include "common/util/status.h"
+
+namespace sceneloc {
+
+// Visual words: word w = c * fine + f is fine centroid f of coarse cell c.
+struct Vocabulary {
+  int coarse = 0;  // coarse cells
+  int fine = 0;    // words per cell
+  // coarse rows of coarse centroids, then coarse x fine rows of word centroids.
+  DescriptorMatrix centroids;
+
+  int num_words() const { return coarse * fine; }
+  bool empty() const { return coarse == 0; }
+};
+
+// The holistic descriptors of a tour, projected per lateral shift (see HolisticDistance:
+// shift s compares query cells (r, c) with tour cells (r, c - s)).
+struct HolisticProjection {
+  int max_shift = 0;  // shifts -max_shift .. max_shift, 2 * max_shift + 1 of them
+  int dims = 0;       // principal axes kept per shift
+  // Per shift k (shift k - max_shift), over the span_k tour cell values that shift compares
+  // (ShiftSpan), shift after shift: the mean (span_k values) and the axes (dims x span_k,
+  // axis after axis).
+  std::vector<float> mean;
+  std::vector<float> axes;
+  // Per location, per shift: the projection (dims values) and the squared norm of what the
+  // axes leave out.
+  std::vector<float> projected;  // locations x shifts x dims
+  std::vector<float> residual;   // locations x shifts
+
+  int num_shifts() const { return 2 * max_shift + 1; }
+  bool empty() const { return dims == 0; }
+  // Where shift k's values start in `mean` (times dims: in `axes`).
+  size_t MeanOffset(int k, const HolisticGrid& grid) const;
+};
+
+// The values the holistic comparison at `shift` reads of each descriptor on `grid`.
+size_t ShiftSpan(const HolisticGrid& grid, int shift);
+
+struct PlaceIndex {
+  Vocabulary vocabulary;
+  std::vector<uint32_t> landmark_word;  // one per landmark
+  HolisticProjection holistic;
+
+  bool empty() const { return vocabulary.empty(); }
+};
+
+// Checks an index against the map it belongs to (its landmark and location counts and its
+// holistic grid): sizes, word numbers in range, finite values. An empty index passes.
+Status ValidatePlaceIndex(const PlaceIndex& index, size_t num_landmarks, size_t num_locations,
+                          const HolisticGrid& grid);
+
+// The inverted file of an index: for each word, the locations whose landmarks (G_l) have
+// it, with its tf-idf weight there; every location's weights have unit norm.
+struct InvertedFile {
+  std::vector<uint32_t> offsets;  // words + 1
+  std::vector<uint32_t> location;
+  std::vector<float> weight;
+  std::vector<float> idf;  // per word: log(locations / locations with it); 0 if none
+};
+InvertedFile BuildInvertedFile(const PlaceIndex& index, const std::vector<uint32_t>& image_offsets,
+                               const std::vector<uint32_t>& image_landmarks);
+
+// The word of each row of `descriptors`: the nearest word of the nearest coarse cell.
+// REQUIRES: !vocabulary.empty().
+std::vector<uint32_t> AssignWords(const Vocabulary& vocabulary,
+                                  const DescriptorMatrix& descriptors);
+
+// The values of the tour cells that shift `shift` compares (HolisticDistance), row after
+// row, from a descriptor on `grid`: the columns [max(0, -shift), cols - max(0, shift)).
+// query = true gives the query's side instead: [max(0, shift), cols + min(0, shift)).
+void ShiftedCells(const float* descriptor, const HolisticGrid& grid, int shift, bool query,
+                  std::vector<float>* out);
+
+}  // namespace sceneloc

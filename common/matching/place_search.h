@@ -1,0 +1,46 @@
+// The coarse stage of recognition on a map with a place index (common/map/place_index.h):
+// the few tour locations one query can be at, picked from the whole map at a cost of a few
+// operations per location, so the fine stage (S_D * S_N, the likelihood, verification)
+// scores those locations' landmarks only (landmark_scope.h).
+//
+// Candidates come from both kinds of evidence sceneloc fuses: the place_word_top locations
+// whose landmarks share most of the query's visual words (tf-idf votes through the inverted
+// file) and the place_holistic_top locations the query looks most like as a whole (the
+// approximate holistic distance shortlists 128, measured exactly); each with place_expand locations
+// either side, so the answer's neighbours, whose landmarks S_N and the confidence read, are scored
+// too.
+//
+// Thread-safe: a function of its arguments.
+#pragma once
+
+#include <vector>
+
+#include "common/features/feature_set.h"
+#include "common/map/map.h"
+#include "common/matching/localiser.h"
+
+namespace sceneloc {
+
+struct PlaceSearch {
+  std::vector<int> locations;  // the candidates, ascending
+  // Holistic distance (HolisticDistance's scale) to every tour location, exact for the
+  // shortlist and approximate elsewhere; empty without holistic descriptors on both sides.
+  std::vector<float> holistic;
+};
+
+// Whether Localise runs the coarse stage on `map` with `options`: the map has a place index
+// and options.use_place_index.
+bool UsesPlaceSearch(const Map& map, const MatchOptions& options);
+
+// The candidate locations of `features` (in the map's frame). REQUIRES: the map has a place
+// index; the query's holistic grid, if any, is the map's.
+PlaceSearch SearchPlaces(const FeatureSet& features, const Map& map, const MatchOptions& options);
+
+// Word votes alone: every location's tf-idf similarity to the query's words (exposed for
+// tests and evaluation).
+std::vector<float> WordScores(const FeatureSet& features, const Map& map);
+
+// The approximate holistic distances alone (exposed for tests and evaluation).
+std::vector<float> ApproximateHolisticDistances(const FeatureSet& features, const Map& map);
+
+}  // namespace sceneloc

@@ -1,0 +1,213 @@
+// The place index (common/map/place_index.h) built at training, and the coarse stage that
+// reads it (common/matching/place_search.h, landmark_scope.h), on a generated tour: real
+// JPEG bytes, a real trained map, the test pass as queries.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+
+#include "common/map/map_io.h"
+#include "common/matching/descriptor_similarity.h"
+#include "common/matching/holistic_similarity.h"
+#include "common/matching/landmark_scope.h"
+#include "common/matching/localiser.h"
+#include "common/matching/place_search.h"
+#include "common/training/place_index_builder.h"
+#include "common/training/trainer.h"
+#include "tests/support/test_map.h"
+#include "tests/support/tour_features.h"
+
+namespace sceneloc {
+namespace {
+
+constexpr int kLocations = 48;
+
+class PlaceIndexTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    const TourOptions tour = test::SmallTour(kLocations, 4);
+    TrainOptions options;
+    options.place_index_min_locations = 20;
+    options.place_index_dims = 16;
+    const std::vector<FeatureSet> features =
+        test::ExtractTourPass(tour, kTrainingPass, options.extractor);
+    std::vector<std::string> names;
+    for (int i = 0; i < kLocations; ++i) names.push_back(TourImageName(i));
+    auto trained = TrainFromFeatures(features, names, options, 2, nullptr);
+    ASSERT_TRUE(trained.ok()) << trained.status().ToString();
+    map_ = new Map(std::move(trained->map));
+    const ExtractionTarget frame = test::MapFrameOf(features);
+    queries_ = new std::vector<FeatureSet>(
+        test::ExtractTourPass(tour, kTestPass, options.extractor, &frame));
+  }
+  static void TearDownTestSuite() {
+    delete map_;
+    delete queries_;
+    map_ = nullptr;
+    queries_ = nullptr;
+  }
+  static Map* map_;
+  static std::vector<FeatureSet>* queries_;
+};
+Map* PlaceIndexTest::map_ = nullptr;
+std::vector<FeatureSet>* PlaceIndexTest::queries_ = nullptr;
+
+// A map of at least place_index_min_locations gets a valid index: a vocabulary sized to its
+// landmarks, a word for each, every location projected at every shift; it survives the map
+// file, and the inverted file made from it on load holds every landmark of every G_l.
+TEST_F(PlaceIndexTest, TrainingBuildsAValidIndexThatTheMapFileKeeps) {
+  const Map& map = *map_;
+  ASSERT_TRUE(map.has_place_index());
+  EXPECT_TRUE(map.Validate().ok());
+  const PlaceIndex& index = map.place_index;
+  const int side = VocabularySide(static_cast<size_t>(map.num_landmarks()));
+  EXPECT_EQ(index.vocabulary.coarse, side);
+  EXPECT_EQ(index.vocabulary.fine, side);
+  EXPECT_EQ(index.landmark_word.size(), static_cast<size_t>(map.num_landmarks()));
+  EXPECT_EQ(index.holistic.dims, 16);
+  EXPECT_EQ(index.holistic.num_shifts(), 2 * map.options.extractor.holistic.max_shift + 1);
+  auto parsed = ParseMap(SerializeMap(map), "resaved");
+  ASSERT_TRUE(parsed.ok()) << parsed.status().ToString();
+  test::ExpectMapsEqual(map, *parsed);
+  EXPECT_EQ(parsed->inverted_file.location, map.inverted_file.location);
+  // Each location appears under as many distinct words as its landmarks have.
+  std::vector<int> postings(static_cast<size_t>(map.num_images()), 0);
+  for (uint32_t location : map.inverted_file.location) ++postings[location];
+  for (int l = 0; l < map.num_images(); ++l) {
+    std::vector<uint32_t> words;
+    for (uint32_t k = map.image_offsets[l]; k < map.image_offsets[l + 1]; ++k) {
+      words.push_back(index.landmark_word[map.image_landmarks[k]]);
+    }
+    std::sort(words.begin(), words.end());
+    words.erase(std::unique(words.begin(), words.end()), words.end());
+    EXPECT_EQ(postings[static_cast<size_t>(l)], static_cast<int>(words.size())) << l;
+  }
+}
+
+// Smaller maps, or a setting of 0, get none: they are searched whole.
+TEST(PlaceIndexBuilderTest, NoIndexBelowTheSize) {
+  for (int min_locations : {0, 7}) {
+    Map map = test::MakeRandomMap(6, 50, 3);
+    map.options.place_index_min_locations = min_locations;
+    BuildPlaceIndex(&map, nullptr);
+    EXPECT_FALSE(map.has_place_index()) << min_locations;
+  }
+  Map map = test::MakeRandomMap(6, 50, 3);
+  map.options.place_index_min_locations = 6;
+  BuildPlaceIndex(&map, nullptr);
+  EXPECT_TRUE(map.has_place_index());
+  EXPECT_TRUE(map.Validate().ok());
+}
+
+// The approximate holistic distance ranks like the exact one: each query's exactly nearest
+// location is among its approximately nearest few.
+TEST_F(PlaceIndexTest, ApproximateHolisticDistanceFindsTheNearest) {
+  const Map& map = *map_;
+  int within = 0;
+  for (const FeatureSet& q : *queries_) {
+    const std::vector<float> exact = HolisticDistances(q, map, 2, nullptr);
+    const std::vector<float> approximate = ApproximateHolisticDistances(q, map);
+    ASSERT_EQ(approximate.size(), exact.size());
+    const int nearest =
+        static_cast<int>(std::min_element(exact.begin(), exact.end()) - exact.begin());
+    const int rank =
+        static_cast<int>(std::count_if(approximate.begin(), approximate.end(), [&](float d) {
+          return d < approximate[static_cast<size_t>(nearest)];
+        }));
+    within += rank < 5;
+  }
+  EXPECT_GE(within, kLocations * 9 / 10);
+}
+
+// A scope of every location is the whole map: the coarse stage asked for more candidates
+// than there are locations answers exactly as the paper's search of every landmark.
+TEST_F(PlaceIndexTest, AScopeOfEveryLocationAnswersAsTheWholeMap) {
+  MatchOptions whole;
+  whole.use_place_index = false;
+  MatchOptions all = whole;
+  all.use_place_index = true;
+  all.place_word_top = 1000;
+  for (size_t q = 0; q < queries_->size(); q += 7) {
+    auto a = Localise((*queries_)[q], *map_, whole, nullptr);
+    auto b = Localise((*queries_)[q], *map_, all, nullptr);
+    ASSERT_TRUE(a.ok() && b.ok());
+    ASSERT_EQ(a->ranked.size(), b->ranked.size());
+    for (size_t i = 0; i < a->ranked.size(); ++i) {
+      EXPECT_EQ(a->ranked[i].index, b->ranked[i].index);
+      EXPECT_EQ(a->ranked[i].likelihood, b->ranked[i].likelihood);
+    }
+    EXPECT_EQ(a->confidence, b->confidence) << "query " << q;
+    EXPECT_EQ(a->location_scores, b->location_scores);
+    EXPECT_EQ(a->descriptor_matches, b->descriptor_matches);
+  }
+}
+
+// With a narrow coarse stage (a few locations by words and by holistic distance, one either
+// side) the fine stage scores a fraction of the map and still answers as the whole map does.
+TEST_F(PlaceIndexTest, ANarrowScopeAnswersAsTheWholeMap) {
+  MatchOptions whole;
+  whole.use_place_index = false;
+  MatchOptions narrow;
+  narrow.place_word_top = 3;
+  narrow.place_holistic_top = 3;
+  narrow.place_expand = 1;
+  int same = 0, scored = 0;
+  for (const FeatureSet& q : *queries_) {
+    const PlaceSearch search = SearchPlaces(q, *map_, narrow);
+    scored += static_cast<int>(search.locations.size());
+    auto a = Localise(q, *map_, whole, nullptr);
+    auto b = Localise(q, *map_, narrow, nullptr);
+    ASSERT_TRUE(a.ok() && b.ok());
+    same += a->ranked[0].index == b->ranked[0].index;
+  }
+  EXPECT_LT(scored, kLocations * kLocations / 2) << "the scope was most of the map";
+  EXPECT_GE(same, kLocations * 9 / 10);
+}
+
+// A scope's matches are the whole map's matches of its landmarks, numbered by position.
+TEST_F(PlaceIndexTest, ScopeMatchesAreTheWholeMapsOfItsLandmarks) {
+  const Map& map = *map_;
+  const FeatureSet& q = (*queries_)[10];
+  const LandmarkScope scope = LandmarkScope::Of(map, {8, 9, 10, 11, 30});
+  ASSERT_GT(scope.size(), 0u);
+  const auto whole = ComputeDescriptorMatches(q, map, 0.3f, nullptr, 32);
+  const auto part = ComputeDescriptorMatches(q, map, scope, 0.3f, nullptr, 32);
+  std::vector<DescriptorMatch> expected;
+  for (const DescriptorMatch& m : whole) {
+    const int32_t p = scope.Position(m.landmark);
+    if (p >= 0) expected.push_back({m.feature, static_cast<uint32_t>(p), m.similarity});
+  }
+  ASSERT_EQ(part.size(), expected.size());
+  for (size_t i = 0; i < part.size(); ++i) {
+    EXPECT_EQ(part[i].feature, expected[i].feature);
+    EXPECT_EQ(part[i].landmark, expected[i].landmark);
+    EXPECT_EQ(part[i].similarity, expected[i].similarity);
+  }
+}
+
+// Positions map both ways; a scope's positions are cleared when it ends, so the next scope
+// (which may reuse the same array) sees only its own landmarks.
+TEST_F(PlaceIndexTest, ScopePositionsAreItsOwn) {
+  const Map& map = *map_;
+  std::vector<uint32_t> first_landmarks;
+  {
+    const LandmarkScope first = LandmarkScope::Of(map, {0, 1});
+    for (size_t i = 0; i < first.size(); ++i) {
+      EXPECT_EQ(first.Position(first.landmark(i)), static_cast<int32_t>(i));
+      first_landmarks.push_back(first.landmark(i));
+    }
+  }
+  const LandmarkScope second = LandmarkScope::Of(map, {40});
+  for (uint32_t g : first_landmarks) {
+    bool in_second = false;
+    for (uint32_t k = map.image_offsets[40]; k < map.image_offsets[41]; ++k) {
+      in_second |= map.image_landmarks[k] == g;
+    }
+    if (!in_second) EXPECT_EQ(second.Position(g), -1) << g;
+  }
+  const LandmarkScope whole = LandmarkScope::Whole(map);
+  EXPECT_EQ(whole.size(), static_cast<size_t>(map.num_landmarks()));
+  EXPECT_EQ(whole.Position(5), 5);
+}
+
+}  // namespace
+}  // namespace sceneloc
