@@ -117,8 +117,8 @@ void HeavyRequestAttacks(Attacker& a, zmq::context_t& ctx, const std::string& en
     f.image_width = map.image_width;
     f.image_height = map.image_height;
     f.keypoints.assign(8192, Keypoint{100, 100, 8, 0, 1, 0});
-    f.local = map.local_mean.row(0).replicate(8192, 1);
-    f.context = map.context_mean.row(0).replicate(8192, 1);
+    f.local = map.LocalMeanRow(0).replicate(8192, 1);
+    f.context = map.ContextMeanRow(0).replicate(8192, 1);
     f.local.rowwise().normalize();
     f.context.rowwise().normalize();
     v1::Request r;

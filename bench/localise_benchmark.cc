@@ -150,8 +150,8 @@ void BM_HostileQuery(benchmark::State& state) {
   f.image_height = map.image_height;
   f.keypoints.assign(static_cast<size_t>(copies), {100, 100, 4, 0, 1, 0});
   // The descriptor that resembles the most landmarks: the normalised mean of them all.
-  const Eigen::RowVectorXf local = map.local_mean.colwise().mean().normalized();
-  const Eigen::RowVectorXf context = map.context_mean.colwise().mean().normalized();
+  const Eigen::RowVectorXf local = map.local_mean.cast<float>().colwise().mean().normalized();
+  const Eigen::RowVectorXf context = map.context_mean.cast<float>().colwise().mean().normalized();
   f.local = local.replicate(copies, 1);
   f.context = context.replicate(copies, 1);
   MatchOptions options;

@@ -119,7 +119,13 @@ std::vector<float> ComputeHolistic(const cv::Mat& gray, const HolisticGrid& grid
   return h;
 }
 
-float HolisticDistance(const float* a, const float* b, const HolisticGrid& grid, int max_shift) {
+namespace {
+
+float Value(float v) { return v; }
+float Value(uint8_t v) { return static_cast<float>(v) * (1.0f / 255.0f); }
+
+template <typename B>
+float Distance(const float* a, const B* b, const HolisticGrid& grid, int max_shift) {
   const int cols = grid.cols, bins = grid.bins;
   float best = std::numeric_limits<float>::max();
   for (int shift = -max_shift; shift <= max_shift; ++shift) {
@@ -129,15 +135,25 @@ float HolisticDistance(const float* a, const float* b, const HolisticGrid& grid,
     float sum = 0;
     for (int r = 0; r < grid.rows; ++r) {
       const float* pa = a + (static_cast<size_t>(r) * cols + c_begin) * bins;
-      const float* pb = b + (static_cast<size_t>(r) * cols + c_begin - shift) * bins;
+      const B* pb = b + (static_cast<size_t>(r) * cols + c_begin - shift) * bins;
       for (int i = 0; i < span; ++i) {
-        const float d = pa[i] - pb[i];
+        const float d = pa[i] - Value(pb[i]);
         sum += d * d;
       }
     }
     best = std::min(best, sum / static_cast<float>(grid.rows * (c_end - c_begin)));
   }
   return best;
+}
+
+}  // namespace
+
+float HolisticDistance(const float* a, const float* b, const HolisticGrid& grid, int max_shift) {
+  return Distance(a, b, grid, max_shift);
+}
+
+float HolisticDistance(const float* a, const uint8_t* b, const HolisticGrid& grid, int max_shift) {
+  return Distance(a, b, grid, max_shift);
 }
 
 }  // namespace sceneloc

@@ -12,6 +12,7 @@
 // Thread-safe: free functions without shared state.
 #pragma once
 
+#include <cstdint>
 #include <opencv2/core.hpp>
 #include <vector>
 
@@ -59,5 +60,7 @@ std::vector<float> ComputeHolistic(const cv::Mat& gray, const HolisticGrid& grid
 // 0 for identical frames. REQUIRES: a.size() == b.size() == grid.size(),
 // 0 <= max_shift < grid.cols.
 float HolisticDistance(const float* a, const float* b, const HolisticGrid& grid, int max_shift);
+// The same against `b` stored as unit bytes (round(255 x), as a map holds its tour's).
+float HolisticDistance(const float* a, const uint8_t* b, const HolisticGrid& grid, int max_shift);
 
 }  // namespace sceneloc

@@ -94,10 +94,11 @@ Status CheckVector(const char* name, const std::vector<float>& v, Range range) {
   return CheckValues(name, v.data(), v.size(), 1, range);
 }
 
-template <typename Matrix>
-Status CheckMatrix(const char* name, const Matrix& m, Range range) {
-  return CheckValues(name, m.data(), static_cast<size_t>(m.size()), static_cast<size_t>(m.cols()),
-                     range);
+// CheckValues of binary16 values.
+Status CheckHalves(const char* name, const HistogramHalves& m, Range range) {
+  std::vector<float> values(static_cast<size_t>(m.size()));
+  for (size_t i = 0; i < values.size(); ++i) values[i] = HalfValue(m.data()[i]);
+  return CheckValues(name, values.data(), values.size(), kNumHistograms, range);
 }
 
 Status CheckCount(const char* name, size_t size, size_t expected, const char* what) {
@@ -185,8 +186,7 @@ Status ValidateHolistic(const Map& map) {
   SCENELOC_RETURN_IF_ERROR(CheckCount("holistic", map.holistic.size(),
                                       map.image_names.size() * static_cast<size_t>(g.size()),
                                       "images x holistic grid values"));
-  return CheckValues("holistic", map.holistic.data(), map.holistic.size(),
-                     static_cast<size_t>(g.size()), Range::kUnitInterval);
+  return Status::Ok();  // bytes: every value is in [0, 1]
 }
 
 // Every per-landmark array holds L entries (rows for the matrices).
@@ -241,12 +241,11 @@ Status ValidateImageLandmarks(const Map& map) {
 }
 
 Status ValidateLandmarkValues(const Map& map) {
-  SCENELOC_RETURN_IF_ERROR(CheckMatrix("local_mean", map.local_mean, Range::kAny));
+  // The mean descriptors are bytes: any value is a valid one.
   SCENELOC_RETURN_IF_ERROR(CheckVector("local_dmax", map.local_dmax, Range::kNonNegative));
   SCENELOC_RETURN_IF_ERROR(CheckVector("local_var", map.local_var, Range::kPositive));
-  SCENELOC_RETURN_IF_ERROR(CheckMatrix("context_mean", map.context_mean, Range::kAny));
-  SCENELOC_RETURN_IF_ERROR(CheckMatrix("context_dmax", map.context_dmax, Range::kNonNegative));
-  SCENELOC_RETURN_IF_ERROR(CheckMatrix("context_var", map.context_var, Range::kPositive));
+  SCENELOC_RETURN_IF_ERROR(CheckHalves("context_dmax", map.context_dmax, Range::kNonNegative));
+  SCENELOC_RETURN_IF_ERROR(CheckHalves("context_var", map.context_var, Range::kPositive));
   SCENELOC_RETURN_IF_ERROR(CheckVector("mean_x", map.mean_x, Range::kAny));
   SCENELOC_RETURN_IF_ERROR(CheckVector("mean_y", map.mean_y, Range::kAny));
   SCENELOC_RETURN_IF_ERROR(CheckVector("quality", map.quality, Range::kAny));
@@ -274,8 +273,9 @@ constexpr NeighbourField kNeighbourFields[] = {
 
 Status ValidateNeighbourValues(const Map& map) {
   for (size_t j = 0; j < map.neighbours.size(); ++j) {
+    const Neighbour n = map.NeighbourAt(j);
     for (const NeighbourField& field : kNeighbourFields) {
-      const float v = map.neighbours[j].*field.member;
+      const float v = n.*field.member;
       if (InRange(v, field.range)) continue;
       return DataLoss("neighbours[" + std::to_string(j) + "]." + field.name + " is " +
                       FormatFloat(v) + ", must be " + Describe(field.range));
@@ -312,48 +312,89 @@ Status Map::Validate() const {
                             holistic_grid);
 }
 
+std::vector<float> Map::HolisticValues(int image) const {
+  const uint8_t* bytes = holistic_of(image);
+  std::vector<float> values(static_cast<size_t>(holistic_grid.size()));
+  for (size_t i = 0; i < values.size(); ++i) values[i] = UnitValue(bytes[i]);
+  return values;
+}
+
+void Map::LocalMean(int g, float* out) const {
+  const uint8_t* row = local_mean.row(g).data();
+  for (int i = 0; i < kDescriptorSize; ++i) out[i] = UnitValue(row[i]);
+}
+
+void Map::ContextMean(int g, float* out) const {
+  const uint8_t* row = context_mean.row(g).data();
+  for (int i = 0; i < kDescriptorSize; ++i) out[i] = UnitValue(row[i]);
+}
+
 void Map::Finalize() {
   const Eigen::Index l = local_mean.rows();
+  constexpr Eigen::Index kBlock = 4096;
+  // The means as values, a block at a time (a big map's would be 512 bytes a landmark).
+  DescriptorMatrix values;
+  const auto block_of = [&](Eigen::Index begin, Eigen::Index rows) {
+    values = local_mean.middleRows(begin, rows).cast<float>() * (1.0f / 255.0f);
+  };
   local_mean_sqnorm.resize(static_cast<size_t>(l));
-  Eigen::Map<Eigen::VectorXf>(local_mean_sqnorm.data(), l) = local_mean.rowwise().squaredNorm();
+  for (Eigen::Index begin = 0; begin < l; begin += kBlock) {
+    const Eigen::Index rows = std::min(kBlock, l - begin);
+    block_of(begin, rows);
+    Eigen::Map<Eigen::VectorXf>(local_mean_sqnorm.data() + begin, rows) =
+        values.rowwise().squaredNorm();
+  }
 
   // The principal axes of the means' second moment, accumulated in double a block at a time
   // over at most kMomentSamples landmarks, evenly spaced (a 128 x 128 eigenproblem; the axes
   // only need to be good, and a map of a million landmarks must load in seconds). With no
   // landmarks any orthonormal basis would do.
-  constexpr Eigen::Index kMomentSamples = 1 << 17, kBlock = 4096;
+  constexpr Eigen::Index kMomentSamples = 1 << 17;
   const Eigen::Index stride = std::max<Eigen::Index>(1, (l + kMomentSamples - 1) / kMomentSamples);
   Eigen::MatrixXd moment = Eigen::MatrixXd::Identity(kDescriptorSize, kDescriptorSize);
   if (l > 0) moment.setZero();
-  Eigen::MatrixXd block;
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> block;
   for (Eigen::Index begin = 0; begin < l; begin += kBlock * stride) {
     const Eigen::Index rows = std::min(kBlock, (l - begin + stride - 1) / stride);
     block.resize(rows, kDescriptorSize);
     for (Eigen::Index r = 0; r < rows; ++r) {
-      block.row(r) = local_mean.row(begin + r * stride).cast<double>();
+      block.row(r) = local_mean.row(begin + r * stride).cast<double>() * (1.0 / 255.0);
     }
     moment.noalias() += block.transpose() * block;
   }
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> solver(moment);
   // Eigenvalues come in increasing order: the last kBoundDims columns are the axes.
   local_basis = solver.eigenvectors().rightCols(kBoundDims).cast<float>();
-  local_projected = local_mean * local_basis;
-  local_projected_sqnorm.resize(static_cast<size_t>(l));
-  local_residual_norm.resize(static_cast<size_t>(l));
-  // The residuals directly, a block at a time (|mu|^2 - |P^T mu|^2 would cancel).
-  for (Eigen::Index begin = 0; begin < l; begin += kBlock) {
-    const Eigen::Index rows = std::min(kBlock, l - begin);
-    const DescriptorMatrix residual =
-        local_mean.middleRows(begin, rows) -
-        local_projected.middleRows(begin, rows) * local_basis.transpose();
-    for (Eigen::Index r = 0; r < rows; ++r) {
-      const auto g = static_cast<size_t>(begin + r);
-      local_projected_sqnorm[g] = local_projected.row(begin + r).squaredNorm();
-      local_residual_norm[g] = residual.row(r).norm();
+  local_projected.resize(0, kBoundDims);
+  local_projected_sqnorm.clear();
+  local_residual_norm.clear();
+  if (keeps_projections()) {
+    local_projected.resize(l, kBoundDims);
+    local_projected_sqnorm.resize(static_cast<size_t>(l));
+    local_residual_norm.resize(static_cast<size_t>(l));
+    for (Eigen::Index begin = 0; begin < l; begin += kBlock) {
+      const Eigen::Index rows = std::min(kBlock, l - begin);
+      block_of(begin, rows);
+      ProjectBlock(values, local_basis, &local_projected, begin, &local_projected_sqnorm,
+                   &local_residual_norm);
     }
   }
   inverted_file = has_place_index() ? BuildInvertedFile(place_index, image_offsets, image_landmarks)
                                     : InvertedFile();
+}
+
+void ProjectBlock(const DescriptorMatrix& means,
+                  const Eigen::Matrix<float, kDescriptorSize, kBoundDims>& basis,
+                  ProjectedMatrix* projected, Eigen::Index at, std::vector<float>* sqnorm,
+                  std::vector<float>* residual_norm) {
+  const Eigen::Index rows = means.rows();
+  projected->middleRows(at, rows).noalias() = means * basis;
+  // The residuals directly (|mu|^2 - |P^T mu|^2 would cancel).
+  const DescriptorMatrix residual = means - projected->middleRows(at, rows) * basis.transpose();
+  for (Eigen::Index r = 0; r < rows; ++r) {
+    (*sqnorm)[static_cast<size_t>(at + r)] = projected->row(at + r).squaredNorm();
+    (*residual_norm)[static_cast<size_t>(at + r)] = residual.row(r).norm();
+  }
 }
 
 size_t Map::MemoryBytes() const {

@@ -15,31 +15,23 @@
 #include <vector>
 
 #include "common/features/feature_set.h"
+#include "common/map/compact.h"
 #include "common/map/place_index.h"
 #include "common/map/train_options.h"
 #include "common/util/status.h"
 
 namespace sceneloc {
 
-using HistogramMatrix = Eigen::Matrix<float, Eigen::Dynamic, kNumHistograms, Eigen::RowMajor>;
+// Descriptors as bytes (UnitByte, compact.h), one row per landmark.
+using DescriptorBytes = Eigen::Matrix<uint8_t, Eigen::Dynamic, kDescriptorSize, Eigen::RowMajor>;
+// Per-histogram spreads as binary16 bits (HalfBits), one row per landmark.
+using HistogramHalves = Eigen::Matrix<uint16_t, Eigen::Dynamic, kNumHistograms, Eigen::RowMajor>;
 
 // Dimensions of the projection S_D's lower bound uses (Map::local_basis): a quarter of the
 // descriptor's, where the bound lets through about 4% of pairs against 0.7% that pass
 // (measured on the Gardens Point map, docs/results.md).
 inline constexpr int kBoundDims = 32;
 using ProjectedMatrix = Eigen::Matrix<float, Eigen::Dynamic, kBoundDims, Eigen::RowMajor>;
-
-// Statistics of one co-occurring neighbour g' of a landmark g (paper III-B).
-struct Neighbour {
-  uint32_t landmark = 0;    // index of g'
-  float cooccurrence = 0;   // p(g' | g): images holding both / images holding g
-  float distance_mean = 0;  // |pos(g') - pos(g)| over images holding both, pixels
-  float distance_var = 0;   // variance of that distance (floored), pixels^2
-  float distance_dmax = 0;  // largest |distance - mean|, pixels
-  float angle_mean = 0;     // direction of pos(g') - pos(g), radians in (-pi, pi]
-  float angle_var = 0;      // circular variance of that angle (floored), radians^2
-  float angle_dmax = 0;     // largest wrapped |angle - mean|, radians
-};
 
 // What the calibrated confidence (common/matching/confidence.h) needs from the tour,
 // measured at training time: how close a frame that shows no place of the route comes to
@@ -70,18 +62,19 @@ struct Map {
   std::vector<std::string> image_names;
   int image_width = 0;  // working frame of the tour images (extractor.h), pixels
   int image_height = 0;
-  // Holistic descriptor of every tour image (holistic.h): N x holistic_grid.size() values,
-  // image after image. Both empty in maps made without one (format version 1).
+  // Holistic descriptor of every tour image (holistic.h): N x holistic_grid.size() values as
+  // bytes (UnitByte), image after image. Both empty in maps made without one (format
+  // version 1).
   HolisticGrid holistic_grid;
-  std::vector<float> holistic;
+  std::vector<uint8_t> holistic;
 
   // --- Landmarks: L rows each ---
-  DescriptorMatrix local_mean;    // mu of the local descriptor
+  DescriptorBytes local_mean;     // mu of the local descriptor
   std::vector<float> local_dmax;  // d_max
   std::vector<float> local_var;   // sigma^2 (floored)
-  DescriptorMatrix context_mean;  // mu of the context descriptor (16 histograms x 8)
-  HistogramMatrix context_dmax;   // d_max per histogram
-  HistogramMatrix context_var;    // sigma^2 per histogram (floored)
+  DescriptorBytes context_mean;   // mu of the context descriptor (16 histograms x 8)
+  HistogramHalves context_dmax;   // d_max per histogram
+  HistogramHalves context_var;    // sigma^2 per histogram (floored)
   std::vector<float> mean_x;      // mean position over the landmark's observations
   std::vector<float> mean_y;
   std::vector<float> quality;  // Q (eq. 4)
@@ -96,9 +89,10 @@ struct Map {
   // maps of format version 1.
   std::vector<float> observation_angle;
 
-  // Neighbours (CSR over landmarks), sorted by distance from the landmark's mean position.
+  // Neighbours (CSR over landmarks), sorted by distance from the landmark's mean position;
+  // NeighbourAt reads one.
   std::vector<uint32_t> neighbour_offsets;  // L + 1
-  std::vector<Neighbour> neighbours;
+  std::vector<PackedNeighbour> neighbours;
 
   // G_l (CSR over tour images): the selected landmarks seen in each tour image.
   std::vector<uint32_t> image_offsets;  // N + 1
@@ -113,6 +107,9 @@ struct Map {
   // local means (uncentred; orthonormal columns), and per landmark P^T mu, |P^T mu|^2 and
   // the norm of the rest, |mu - P P^T mu|. For any descriptor a,
   //   |a - mu|^2 >= |P^T a - P^T mu|^2 + (|a - P P^T a| - |mu - P P^T mu|)^2.
+  // The projections are kept only in maps searched whole (no place index); the coarse stage
+  // projects its scope's landmarks itself (descriptor_similarity.cc), so big maps do not hold
+  // 140 bytes more per landmark.
   Eigen::Matrix<float, kDescriptorSize, kBoundDims> local_basis;
   ProjectedMatrix local_projected;
   std::vector<float> local_projected_sqnorm;
@@ -124,9 +121,32 @@ struct Map {
   int num_images() const { return static_cast<int>(image_names.size()); }
   bool has_holistic() const { return !holistic_grid.empty(); }
   bool has_place_index() const { return !place_index.empty(); }
-  const float* holistic_of(int image) const {
+  const uint8_t* holistic_of(int image) const {
     return holistic.data() + static_cast<size_t>(image) * holistic_grid.size();
   }
+  // The holistic descriptor of tour image `image` as values.
+  std::vector<float> HolisticValues(int image) const;
+  // The mean local (context) descriptor of landmark g as values, into out[0, 128).
+  void LocalMean(int g, float* out) const;
+  void ContextMean(int g, float* out) const;
+  Eigen::Matrix<float, 1, kDescriptorSize> LocalMeanRow(int g) const {
+    Eigen::Matrix<float, 1, kDescriptorSize> row;
+    LocalMean(g, row.data());
+    return row;
+  }
+  Eigen::Matrix<float, 1, kDescriptorSize> ContextMeanRow(int g) const {
+    Eigen::Matrix<float, 1, kDescriptorSize> row;
+    ContextMean(g, row.data());
+    return row;
+  }
+  float ContextDmax(int g, int h) const { return HalfValue(context_dmax(g, h)); }
+  float ContextVar(int g, int h) const { return HalfValue(context_var(g, h)); }
+  // Neighbour k of the neighbour list (neighbours[k]) as S_N reads it.
+  Neighbour NeighbourAt(size_t k) const {
+    return Unpack(neighbours[k], static_cast<float>(frame_long_side()));
+  }
+  // Whether Finalize keeps the projections (a map searched whole).
+  bool keeps_projections() const { return !has_place_index(); }
   // The long side of the working frame: pixel-unit settings are fractions of it.
   int frame_long_side() const { return std::max(image_width, image_height); }
   // Where a query image of width x height is extracted to be matched against this map.
@@ -142,5 +162,14 @@ struct Map {
   // Approximate heap bytes held by this map.
   size_t MemoryBytes() const;
 };
+
+// The projections of `means` (values, one row per landmark) onto `basis`, into rows
+// [at, at + means.rows()) of `projected`, with their squared norms and the norms of what the
+// basis leaves out, into the same entries of `sqnorm` and `residual_norm`: what S_D's lower
+// bound reads of a landmark (Map::local_projected). REQUIRES: room for those rows.
+void ProjectBlock(const DescriptorMatrix& means,
+                  const Eigen::Matrix<float, kDescriptorSize, kBoundDims>& basis,
+                  ProjectedMatrix* projected, Eigen::Index at, std::vector<float>* sqnorm,
+                  std::vector<float>* residual_norm);
 
 }  // namespace sceneloc

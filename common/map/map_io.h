@@ -3,7 +3,7 @@
 // sequence makes LoadMap or ParseMap crash, read out of bounds or allocate much more
 // than the file's own size; each failure is a status whose message names the file.
 //
-// Layout, format version 4. Integers are little-endian two's complement, f32/f64 are
+// Layout, format version 5. Integers are little-endian two's complement, f32/f64 are
 // IEEE 754 binary32/binary64 little-endian. There is no padding anywhere.
 //
 //   Header, 32 bytes:
@@ -32,10 +32,11 @@
 //                    u32 num_tracks, u32 num_candidates
 //     Calibration    u8 valid, f32 off_map_distance, f32 off_map_spread, u32 samples
 //     Images         u64 N, N x str image_names; i32 image_width, i32 image_height;
-//                    i32 holistic cols, i32 rows, i32 bins, arr<f32> holistic
-//                    (N x cols x rows x bins, or empty with a zero grid)
-//     Landmarks      mat local_mean (128 cols), arr<f32> local_dmax, arr<f32> local_var,
-//                    mat context_mean (128), mat context_dmax (16), mat context_var (16),
+//                    i32 holistic cols, i32 rows, i32 bins, arr<u8> holistic
+//                    (N x cols x rows x bins unit bytes, or empty with a zero grid)
+//     Landmarks      mat<u8> local_mean (128 cols, unit bytes), arr<f32> local_dmax,
+//                    arr<f32> local_var, mat<u8> context_mean (128),
+//                    mat<f16> context_dmax (16), mat<f16> context_var (16),
 //                    arr<f32> mean_x, arr<f32> mean_y, arr<f32> quality
 //     Observations   arr<u32> observation_offsets, arr<u32> observation_image,
 //                    arr<f32> observation_x, arr<f32> observation_y,
@@ -49,13 +50,21 @@
 //                    place_index.h)
 //   where  str       = u64 byte count, then the bytes (UTF-8, no terminator)
 //          arr<T>    = u64 element count, then the elements packed
-//          mat       = u64 rows, u64 cols (must equal the stated count), rows x cols f32
-//                      row-major
-//          neighbour = 32 bytes: u32 landmark, then f32 cooccurrence, distance_mean,
-//                      distance_var, distance_dmax, angle_mean, angle_var, angle_dmax
+//          mat<T>    = u64 rows, u64 cols (must equal the stated count), rows x cols T
+//                      row-major (mat = mat<f32>)
+//          unit byte = a value in [0, 1] as round(255 x) (compact.h); f16 = IEEE binary16
+//          neighbour = 16 bytes (compact.h PackedNeighbour): u32 landmark, u16
+//                      distance_mean, u16 distance_sd, u16 distance_dmax (units of the
+//                      frame's long side / 32768), i16 angle_mean (pi / 32767),
+//                      u16 angle_sd (pi / 65535), u8 angle_dmax (pi / 255),
+//                      u8 cooccurrence (1 / 255)
 //
 //   where a u8 flag is 0 or 1.
 //
+//   Format version 4 (still read): as 5 with the holistic descriptors, the mean descriptors
+//   and the context spreads as f32 (mat, arr<f32>) and each neighbour as 32 bytes (u32
+//   landmark, then f32 cooccurrence, distance_mean, distance_var, distance_dmax, angle_mean,
+//   angle_var, angle_dmax); a reader compacts them as version 5 stores them.
 //   Format version 3 (still read): as 4 without quality_window (those maps measured Q over
 //   the whole tour: they load with a window of 0) and without the place index (they are
 //   searched whole).
@@ -90,7 +99,7 @@
 namespace sceneloc {
 
 inline constexpr char kMapMagic[8] = {'S', 'C', 'N', 'L', 'M', 'A', 'P', '\0'};
-inline constexpr uint32_t kMapFormatVersion = 4;
+inline constexpr uint32_t kMapFormatVersion = 5;
 inline constexpr size_t kMapHeaderBytes = 32;
 
 // What the header of a map file says.

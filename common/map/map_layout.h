@@ -17,9 +17,13 @@ namespace sceneloc::map_io_internal {
 
 static_assert(std::numeric_limits<float>::is_iec559 && std::numeric_limits<double>::is_iec559);
 static_assert(sizeof(int) == 4, "the format stores int fields as i32");
+static_assert(std::is_trivially_copyable_v<PackedNeighbour> && sizeof(PackedNeighbour) == 16 &&
+                  offsetof(PackedNeighbour, distance_mean) == 4 &&
+                  offsetof(PackedNeighbour, cooccurrence) == 15,
+              "PackedNeighbour is copied as the 16-byte record of map_io.h");
 static_assert(std::is_trivially_copyable_v<Neighbour> && sizeof(Neighbour) == 32 &&
                   offsetof(Neighbour, cooccurrence) == 4 && offsetof(Neighbour, angle_dmax) == 28,
-              "Neighbour is copied as the 32-byte record of map_io.h");
+              "Neighbour is read as the 32-byte record of format versions 1-4");
 // A new option must be stored too: add it to TransferOptions, to the layout in
 // map_io.h and to the round-trip test, bump kMapFormatVersion, then update these sizes.
 static_assert(sizeof(void*) != 8 || sizeof(ExtractorOptions) == 80,
@@ -136,6 +140,74 @@ void TransferPlaceIndex(Archive& a, Index& p) {
   a.Field("place_index.holistic_residual", p.holistic.residual);
 }
 
+// The fields format version 5 stores compactly (compact.h) and older versions as floats:
+// an older version is written from, and read into, floats converted to and from the map's
+// compact fields (the map keeps what version 5 would).
+template <typename Archive, typename Bytes>
+void UnitBytes(Archive& a, const char* name, uint32_t version, Bytes& bytes) {
+  if (version >= 5) {
+    a.Field(name, bytes);
+  } else if constexpr (std::is_const_v<Bytes>) {
+    std::vector<float> values(bytes.size());
+    for (size_t i = 0; i < bytes.size(); ++i) values[i] = UnitValue(bytes[i]);
+    a.Field(name, values);
+  } else {
+    std::vector<float> values;
+    a.Field(name, values);
+    bytes.resize(values.size());
+    for (size_t i = 0; i < values.size(); ++i) bytes[i] = UnitByte(values[i]);
+  }
+}
+
+template <typename Archive, typename Matrix>
+void DescriptorRows(Archive& a, const char* name, uint32_t version, Matrix& bytes) {
+  if (version >= 5) {
+    a.Field(name, bytes);
+  } else if constexpr (std::is_const_v<Matrix>) {
+    const DescriptorMatrix values = bytes.template cast<float>() * (1.0f / 255.0f);
+    a.Field(name, values);
+  } else {
+    DescriptorMatrix values;
+    a.Field(name, values);
+    bytes.resize(values.rows(), kDescriptorSize);
+    for (Eigen::Index i = 0; i < values.size(); ++i) bytes.data()[i] = UnitByte(values.data()[i]);
+  }
+}
+
+template <typename Archive, typename Matrix>
+void HistogramRows(Archive& a, const char* name, uint32_t version, Matrix& halves) {
+  using Values = Eigen::Matrix<float, Eigen::Dynamic, kNumHistograms, Eigen::RowMajor>;
+  if (version >= 5) {
+    a.Field(name, halves);
+  } else if constexpr (std::is_const_v<Matrix>) {
+    Values values(halves.rows(), kNumHistograms);
+    for (Eigen::Index i = 0; i < values.size(); ++i) values.data()[i] = HalfValue(halves.data()[i]);
+    a.Field(name, values);
+  } else {
+    Values values;
+    a.Field(name, values);
+    halves.resize(values.rows(), kNumHistograms);
+    for (Eigen::Index i = 0; i < values.size(); ++i) halves.data()[i] = HalfBits(values.data()[i]);
+  }
+}
+
+template <typename Archive, typename MapT>
+void Neighbours(Archive& a, uint32_t version, MapT& m) {
+  const auto frame = static_cast<float>(std::max(m.image_width, m.image_height));
+  if (version >= 5) {
+    a.Field("neighbours", m.neighbours);
+  } else if constexpr (std::is_const_v<MapT>) {
+    std::vector<Neighbour> values;
+    for (const PackedNeighbour& p : m.neighbours) values.push_back(Unpack(p, frame));
+    a.Field("neighbours", values);
+  } else {
+    std::vector<Neighbour> values;
+    a.Field("neighbours", values);
+    m.neighbours.resize(values.size());
+    for (size_t i = 0; i < values.size(); ++i) m.neighbours[i] = Pack(values[i], frame);
+  }
+}
+
 template <typename Archive, typename MapT, typename V1>
 void TransferMap(Archive& a, MapT& m, uint32_t version, V1& v1) {
   TransferOptions(a, m.options, version, v1);
@@ -148,14 +220,14 @@ void TransferMap(Archive& a, MapT& m, uint32_t version, V1& v1) {
     a.Field("holistic_grid.cols", m.holistic_grid.cols);
     a.Field("holistic_grid.rows", m.holistic_grid.rows);
     a.Field("holistic_grid.bins", m.holistic_grid.bins);
-    a.Field("holistic", m.holistic);
+    UnitBytes(a, "holistic", version, m.holistic);
   }
-  a.Field("local_mean", m.local_mean);
+  DescriptorRows(a, "local_mean", version, m.local_mean);
   a.Field("local_dmax", m.local_dmax);
   a.Field("local_var", m.local_var);
-  a.Field("context_mean", m.context_mean);
-  a.Field("context_dmax", m.context_dmax);
-  a.Field("context_var", m.context_var);
+  DescriptorRows(a, "context_mean", version, m.context_mean);
+  HistogramRows(a, "context_dmax", version, m.context_dmax);
+  HistogramRows(a, "context_var", version, m.context_var);
   a.Field("mean_x", m.mean_x);
   a.Field("mean_y", m.mean_y);
   a.Field("quality", m.quality);
@@ -166,7 +238,7 @@ void TransferMap(Archive& a, MapT& m, uint32_t version, V1& v1) {
   a.Field("observation_size", m.observation_size);
   if (version >= 2) a.Field("observation_angle", m.observation_angle);
   a.Field("neighbour_offsets", m.neighbour_offsets);
-  a.Field("neighbours", m.neighbours);
+  Neighbours(a, version, m);
   a.Field("image_offsets", m.image_offsets);
   a.Field("image_landmarks", m.image_landmarks);
   if (version >= 4) TransferPlaceIndex(a, m.place_index);

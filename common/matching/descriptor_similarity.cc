@@ -17,19 +17,19 @@ namespace {
 // a block of scores for 1000 features (4 MB) stays in cache-friendly range.
 constexpr size_t kLandmarkBlock = 512;
 
-// The similarity of the query's context histogram h to the landmark's.
-float HistogramSimilarity(const float* context, const float* mean, const Map& map, int landmark,
+// The similarity of the query's context histogram h to the landmark's (its mean as bytes).
+float HistogramSimilarity(const float* context, const uint8_t* mean, const Map& map, int landmark,
                           int h) {
   float d2 = 0;
   for (int b = 0; b < kHistogramBins; ++b) {
-    const float diff = context[h * kHistogramBins + b] - mean[h * kHistogramBins + b];
+    const float diff = context[h * kHistogramBins + b] - UnitValue(mean[h * kHistogramBins + b]);
     d2 += diff * diff;
   }
-  return SimilarityFromSquared(d2, map.context_dmax(landmark, h), map.context_var(landmark, h));
+  return SimilarityFromSquared(d2, map.ContextDmax(landmark, h), map.ContextVar(landmark, h));
 }
 
 float ContextSimilarity(const float* context, const Map& map, int landmark) {
-  const float* mean = map.context_mean.row(landmark).data();
+  const uint8_t* mean = map.context_mean.row(landmark).data();
   float sum = 0;
   for (int h = 0; h < kNumHistograms; ++h) {
     sum += HistogramSimilarity(context, mean, map, landmark, h);
@@ -48,7 +48,7 @@ constexpr float kSumSlack = 1e-3f;
 // local * ContextSimilarity.
 float PairSimilarity(float local, const float* context, const Map& map, int landmark, float s_min) {
   const float needed = s_min / local * kNumHistograms - kSumSlack;
-  const float* mean = map.context_mean.row(landmark).data();
+  const uint8_t* mean = map.context_mean.row(landmark).data();
   float sum = 0;
   for (int h = 0; h < kNumHistograms; ++h) {
     if (sum + static_cast<float>(kNumHistograms - h) < needed) return 0;
@@ -151,6 +151,56 @@ uint32_t BoundSurvivors(const float* dots, const QueryProjection& query, float p
   return kept;
 }
 
+// What S_D's lower bound reads of the scope's landmarks at positions [begin, end): a view of
+// the map's projections (whole scope) or a copy of them (a scope of a map that keeps them),
+// or projections made here from the means (a map that does not keep them).
+class BlockProjection {
+ public:
+  BlockProjection(const Map& map, const LandmarkScope& scope, size_t begin, size_t end)
+      : rows_(static_cast<Eigen::Index>(end - begin)) {
+    if (map.keeps_projections() && scope.whole()) {
+      view_ = &map.local_projected;
+      at_ = static_cast<Eigen::Index>(begin);
+      sqnorm_ = map.local_projected_sqnorm.data() + begin;
+      residual_ = map.local_residual_norm.data() + begin;
+      return;
+    }
+    own_.resize(rows_, kBoundDims);
+    own_sqnorm_.resize(static_cast<size_t>(rows_));
+    own_residual_.resize(static_cast<size_t>(rows_));
+    if (map.keeps_projections()) {
+      for (Eigen::Index r = 0; r < rows_; ++r) {
+        const uint32_t g = scope.landmark(begin + static_cast<size_t>(r));
+        own_.row(r) = map.local_projected.row(g);
+        own_sqnorm_[static_cast<size_t>(r)] = map.local_projected_sqnorm[g];
+        own_residual_[static_cast<size_t>(r)] = map.local_residual_norm[g];
+      }
+    } else {
+      DescriptorMatrix means(rows_, kDescriptorSize);
+      for (Eigen::Index r = 0; r < rows_; ++r) {
+        map.LocalMean(static_cast<int>(scope.landmark(begin + static_cast<size_t>(r))),
+                      means.row(r).data());
+      }
+      ProjectBlock(means, map.local_basis, &own_, 0, &own_sqnorm_, &own_residual_);
+    }
+    view_ = &own_;
+    sqnorm_ = own_sqnorm_.data();
+    residual_ = own_residual_.data();
+  }
+  auto projected() const { return view_->middleRows(at_, rows_); }
+  float sqnorm(Eigen::Index r) const { return sqnorm_[r]; }
+  float residual_norm(Eigen::Index r) const { return residual_[r]; }
+
+ private:
+  Eigen::Index rows_;
+  const ProjectedMatrix* view_ = nullptr;
+  Eigen::Index at_ = 0;
+  const float* sqnorm_ = nullptr;
+  const float* residual_ = nullptr;
+  ProjectedMatrix own_;
+  std::vector<float> own_sqnorm_, own_residual_;
+};
+
 // Scores features against the scope's landmarks at positions [begin, end) and appends the
 // survivors to `out` (by position). First a lower bound on every pair's squared distance
 // from a matrix product at a quarter of the descriptor's width (Map::local_basis); only the
@@ -162,17 +212,11 @@ void MatchBlock(const FeatureSet& features, const QueryProjection& query, const 
   const auto n = static_cast<Eigen::Index>(end - begin);
   // dots(j, i) = P^T mu_j . P^T a_i; landmark-major so each landmark's column of features
   // is contiguous and the results come out ordered by landmark.
+  // The block's projections: the map's own in a map searched whole, else made here from
+  // its landmarks' means (a big map does not keep them).
+  const BlockProjection block(map, scope, begin, end);
   Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> dots;
-  if (scope.whole()) {
-    dots.noalias() = map.local_projected.middleRows(static_cast<Eigen::Index>(begin), n) *
-                     query.projected.transpose();
-  } else {
-    ProjectedMatrix projected(n, kBoundDims);
-    for (Eigen::Index r = 0; r < n; ++r) {
-      projected.row(r) = map.local_projected.row(scope.landmark(begin + static_cast<size_t>(r)));
-    }
-    dots.noalias() = projected * query.projected.transpose();
-  }
+  dots.noalias() = block.projected() * query.projected.transpose();
   std::vector<uint32_t> survivors(static_cast<size_t>(dots.cols()) + 8);
   std::vector<float> distances(static_cast<size_t>(dots.cols()));
   for (Eigen::Index r = 0; r < n; ++r) {
@@ -182,11 +226,13 @@ void MatchBlock(const FeatureSet& features, const QueryProjection& query, const 
     const float var = map.local_var[landmark];
     const float limit = SquaredDistanceLimit(dmax, var, s_min);
     const float mu2 = map.local_mean_sqnorm[landmark];
-    const auto mean = map.local_mean.row(landmark);
     const size_t first = out->size();
     const uint32_t kept =
-        BoundSurvivors(dots.row(r).data(), query, map.local_projected_sqnorm[landmark],
-                       map.local_residual_norm[landmark], limit + kBoundSlack, survivors.data());
+        BoundSurvivors(dots.row(r).data(), query, block.sqnorm(r), block.residual_norm(r),
+                       limit + kBoundSlack, survivors.data());
+    if (kept == 0) continue;
+    Eigen::Matrix<float, 1, kDescriptorSize> mean;
+    map.LocalMean(landmark, mean.data());
     // The exact distances, then the pairs within the limit packed to the front in place
     // (no branch on each: a sixth of them pass, at random), then the context term.
     uint32_t close = 0;
@@ -247,7 +293,9 @@ std::vector<DescriptorMatch> ComputeDescriptorMatches(const FeatureSet& features
 }
 
 float DescriptorSimilarity(const FeatureSet& features, int feature, const Map& map, int landmark) {
-  const float d2 = (features.local.row(feature) - map.local_mean.row(landmark)).squaredNorm();
+  Eigen::Matrix<float, 1, kDescriptorSize> mean;
+  map.LocalMean(landmark, mean.data());
+  const float d2 = (features.local.row(feature) - mean).squaredNorm();
   const float local = SimilarityFromSquared(d2, map.local_dmax[landmark], map.local_var[landmark]);
   return local * ContextSimilarity(features.context.row(feature).data(), map, landmark);
 }

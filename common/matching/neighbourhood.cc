@@ -43,7 +43,7 @@ float Eq2(const FeatureSet& features, const Map& map, uint32_t feature, uint32_t
   float denominator = include_centre_term ? 1.0f : 0.0f;
   float best = 0;
   for (uint32_t k = begin; k < end; ++k) {
-    const Neighbour& n = map.neighbours[k];
+    const Neighbour n = map.NeighbourAt(k);
     numerator += n.cooccurrence * BestNeighbourMatch(features, feature, n, matches_of(n.landmark));
     denominator += n.cooccurrence;
     if (denominator > 0) best = std::max(best, numerator / denominator);

@@ -40,8 +40,8 @@ FeatureSet SelfTestFeatures(const Map& map, int location) {
       }
     }
     k.response = 1.0f;
-    f.local.row(i) = map.local_mean.row(g);
-    f.context.row(i) = map.context_mean.row(g);
+    map.LocalMean(static_cast<int>(g), f.local.row(i).data());
+    map.ContextMean(static_cast<int>(g), f.context.row(i).data());
   }
   NormaliseRows(&f.local);
   NormaliseRows(&f.context);

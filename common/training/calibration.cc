@@ -43,7 +43,7 @@ void CalibrateMap(Map* map, ThreadPool* pool, int max_samples) {
     for (size_t s = begin; s < end; ++s) {
       const int image = static_cast<int>(s * static_cast<size_t>(n) / samples);
       const std::vector<float> turned =
-          RotateHolistic180(map->holistic_of(image), map->holistic_grid);
+          RotateHolistic180(map->HolisticValues(image).data(), map->holistic_grid);
       float best = std::numeric_limits<float>::max();
       for (int l = 0; l < n; ++l) {
         best = std::min(

@@ -107,8 +107,10 @@ void BuildNeighbours(const TrainOptions& options, Map* map) {
     std::partial_sort(near.begin(), near.begin() + static_cast<std::ptrdiff_t>(keep), near.end());
     for (size_t k = 0; k < keep; ++k) {
       const uint32_t h = near[k].second;
-      map->neighbours.push_back(MakeNeighbour(*map, options, static_cast<uint32_t>(g), h,
-                                              SharedOffsets(*map, static_cast<uint32_t>(g), h)));
+      map->neighbours.push_back(
+          Pack(MakeNeighbour(*map, options, static_cast<uint32_t>(g), h,
+                             SharedOffsets(*map, static_cast<uint32_t>(g), h)),
+               static_cast<float>(map->frame_long_side())));
     }
     map->neighbour_offsets.push_back(static_cast<uint32_t>(map->neighbours.size()));
   }

@@ -40,16 +40,22 @@ void FuseOne(const Track& track, const TourWindow& tour, const TrainOptions& opt
   const auto context_row = [&](size_t k) {
     return tour[track[k].image].context.row(track[k].feature).data();
   };
-  auto local_mean = map->local_mean.row(index);
-  auto context_mean = map->context_mean.row(index);
-  local_mean.setZero();
-  context_mean.setZero();
+  Eigen::Matrix<float, 1, kDescriptorSize> local_mean =
+      Eigen::Matrix<float, 1, kDescriptorSize>::Zero();
+  Eigen::Matrix<float, 1, kDescriptorSize> context_mean = local_mean;
   for (size_t k = 0; k < track.size(); ++k) {
     local_mean += tour[track[k].image].local.row(track[k].feature);
     context_mean += tour[track[k].image].context.row(track[k].feature);
   }
   local_mean /= static_cast<float>(track.size());
   context_mean /= static_cast<float>(track.size());
+  // The map holds the means as bytes: the spreads are measured from the means it holds.
+  for (int i = 0; i < kDescriptorSize; ++i) {
+    map->local_mean(index, i) = UnitByte(local_mean[i]);
+    map->context_mean(index, i) = UnitByte(context_mean[i]);
+  }
+  map->LocalMean(index, local_mean.data());
+  map->ContextMean(index, context_mean.data());
 
   const SpreadStats local = Spread(track.size(), local_row, local_mean.data(), 0, kDescriptorSize);
   map->local_dmax[static_cast<size_t>(index)] = local.dmax;
@@ -58,8 +64,9 @@ void FuseOne(const Track& track, const TourWindow& tour, const TrainOptions& opt
   for (int h = 0; h < kNumHistograms; ++h) {
     const SpreadStats s =
         Spread(track.size(), context_row, context_mean.data(), h * kHistogramBins, kHistogramBins);
-    map->context_dmax(index, h) = s.dmax;
-    map->context_var(index, h) = std::max(s.var, static_cast<float>(options.context_var_floor));
+    map->context_dmax(index, h) = HalfBits(s.dmax);
+    map->context_var(index, h) =
+        HalfBits(std::max(s.var, static_cast<float>(options.context_var_floor)));
   }
 }
 

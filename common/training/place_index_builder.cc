@@ -33,6 +33,32 @@ std::vector<uint32_t> EvenSample(size_t n, size_t limit) {
   return out;
 }
 
+// The local means of landmarks `rows` as values.
+DescriptorMatrix GatherMeans(const Map& map, const std::vector<uint32_t>& rows) {
+  DescriptorMatrix out(static_cast<Eigen::Index>(rows.size()), kDescriptorSize);
+  for (size_t i = 0; i < rows.size(); ++i) {
+    map.LocalMean(static_cast<int>(rows[i]), out.row(static_cast<Eigen::Index>(i)).data());
+  }
+  return out;
+}
+
+// AssignWords over every landmark's mean, a block of values at a time.
+std::vector<uint32_t> LandmarkWords(const Vocabulary& v, const Map& map) {
+  constexpr size_t kBlock = 65536;
+  const size_t n = static_cast<size_t>(map.num_landmarks());
+  std::vector<uint32_t> words, rows;
+  words.reserve(n);
+  for (size_t begin = 0; begin < n; begin += kBlock) {
+    rows.clear();
+    for (size_t g = begin; g < std::min(n, begin + kBlock); ++g) {
+      rows.push_back(static_cast<uint32_t>(g));
+    }
+    const std::vector<uint32_t> block = AssignWords(v, GatherMeans(map, rows));
+    words.insert(words.end(), block.begin(), block.end());
+  }
+  return words;
+}
+
 // Lloyd's k-means of the rows of `x` into k centres (k <= rows), seeded by k distinct rows
 // drawn with `rng`; an emptied centre is moved to the row furthest from its own.
 DescriptorMatrix KMeans(const DescriptorMatrix& x, int k, std::mt19937* rng) {
@@ -82,12 +108,12 @@ void BuildVocabulary(Map* map, ThreadPool* pool) {
   v.fine = side;
   v.centroids.resize(static_cast<Eigen::Index>(side) * (1 + side), kDescriptorSize);
   std::mt19937 rng(20261206);
-  const DescriptorMatrix sample = Gather(map->local_mean, EvenSample(n, kCoarseSamples));
+  const DescriptorMatrix sample = GatherMeans(*map, EvenSample(n, kCoarseSamples));
   v.centroids.topRows(side) = KMeans(sample, side, &rng);
   // Each cell's words from its own landmarks (all of the map's, sampled), the cells in
   // parallel with a seed each.
   const std::vector<uint32_t> cell_of =
-      AssignWords(Vocabulary{side, 1, v.centroids.topRows(side)}, map->local_mean);
+      LandmarkWords(Vocabulary{side, 1, v.centroids.topRows(side)}, *map);
   std::vector<std::vector<uint32_t>> members(static_cast<size_t>(side));
   for (size_t g = 0; g < n; ++g) members[cell_of[g]].push_back(static_cast<uint32_t>(g));
   auto fit = [&](size_t begin, size_t end) {
@@ -100,7 +126,7 @@ void BuildVocabulary(Map* map, ThreadPool* pool) {
       }
       std::vector<uint32_t> picked;
       for (uint32_t i : EvenSample(rows.size(), kFineSamples)) picked.push_back(rows[i]);
-      DescriptorMatrix x = Gather(map->local_mean, picked);
+      DescriptorMatrix x = GatherMeans(*map, picked);
       // A cell with fewer landmarks than words repeats them: its spare words stay empty.
       std::mt19937 cell_rng(static_cast<uint32_t>(c) * 7919u + 1);
       if (x.rows() >= side) {
@@ -115,7 +141,7 @@ void BuildVocabulary(Map* map, ThreadPool* pool) {
   } else {
     fit(0, members.size());
   }
-  map->place_index.landmark_word = AssignWords(v, map->local_mean);
+  map->place_index.landmark_word = LandmarkWords(v, *map);
 }
 
 // The axes of one shift from the sampled locations' centred values (a Gram matrix of at
@@ -128,7 +154,8 @@ void ProjectShift(const Map& map, int k, HolisticProjection* h) {
   Eigen::MatrixXf values(static_cast<Eigen::Index>(n), span);
   std::vector<float> cells;
   for (size_t l = 0; l < n; ++l) {
-    ShiftedCells(map.holistic_of(static_cast<int>(l)), grid, shift, /*query=*/false, &cells);
+    ShiftedCells(map.HolisticValues(static_cast<int>(l)).data(), grid, shift, /*query=*/false,
+                 &cells);
     values.row(static_cast<Eigen::Index>(l)) =
         Eigen::Map<const Eigen::RowVectorXf>(cells.data(), span);
   }

@@ -404,7 +404,10 @@ StatusOr<TrainResult> TrainFromTour(const TourFeatures& tour,
   map.image_width = scan.frame_width;
   map.image_height = scan.frame_height;
   map.holistic_grid = scan.holistic_grid;
-  map.holistic = std::move(scan.holistic);
+  map.holistic.resize(scan.holistic.size());
+  std::transform(scan.holistic.begin(), scan.holistic.end(), map.holistic.begin(), UnitByte);
+  scan.holistic.clear();
+  scan.holistic.shrink_to_fit();
   SCENELOC_RETURN_IF_ERROR(FuseKept(context, chunks, keep, quality, &map));
   s.fuse_seconds = watch.Seconds();
   chunks.clear();

@@ -36,17 +36,17 @@ TEST(MapTest, RandomMapsAreValid) {
 // checked against a plain loop.
 TEST(MapTest, FinalizeComputesSquaredNorms) {
   Map map = MakeRandomMap(8, 40, 3);
-  map.local_mean.row(5) *= 3.0f;
+  map.local_mean.row(5) = map.local_mean.row(5) / 2;  // a shorter mean (half the norm)
   map.local_mean_sqnorm.clear();
   map.Finalize();
   ASSERT_EQ(map.local_mean_sqnorm.size(), 40u);
   for (int i = 0; i < 40; ++i) {
     double sum = 0;
     for (int j = 0; j < kDescriptorSize; ++j)
-      sum += double{map.local_mean(i, j)} * map.local_mean(i, j);
+      sum += std::pow(double{UnitValue(map.local_mean(i, j))}, 2);
     EXPECT_NEAR(map.local_mean_sqnorm[i], sum, 1e-5 * sum) << "landmark " << i;
   }
-  EXPECT_NEAR(map.local_mean_sqnorm[5], 9.0f, 1e-4f);
+  EXPECT_NEAR(map.local_mean_sqnorm[5], 0.25f, 0.01f);
 }
 
 // MemoryBytes counts at least the descriptor matrices and grows with the map.
@@ -118,27 +118,24 @@ std::vector<Breakage> Breakages() {
        "refers to landmark 99999 but the map has 60 landmarks"},
       {"ImageLandmarkOutOfRange", [](Map* m) { m->image_landmarks.back() = 60; },
        "refers to landmark 60 but the map has 60 landmarks"},
-      {"NaNDescriptor", [](Map* m) { m->local_mean(7, 100) = kNaN; },
-       "local_mean[7][100] is nan, must be finite"},
-      {"InfiniteContext", [](Map* m) { m->context_mean(2, 3) = kInf; },
-       "context_mean[2][3] is inf"},
+      {"NaNContextSpread", [](Map* m) { m->context_dmax(7, 10) = HalfBits(kNaN); },
+       "context_dmax[7][10] is nan, must be finite and >= 0"},
+      {"InfiniteContextVariance", [](Map* m) { m->context_var(2, 3) = HalfBits(kInf); },
+       "context_var[2][3] is inf"},
       {"ZeroVariance", [](Map* m) { m->local_var[9] = 0; },
        "local_var[9] is 0, must be finite and > 0"},
-      {"NegativeContextVariance", [](Map* m) { m->context_var(1, 15) = -1; },
+      {"NegativeContextVariance", [](Map* m) { m->context_var(1, 15) = HalfBits(-1); },
        "context_var[1][15] is -1"},
       {"NegativeDmax", [](Map* m) { m->local_dmax[0] = -0.5f; }, "local_dmax[0] is -0.5"},
-      {"NegativeContextDmax", [](Map* m) { m->context_dmax(4, 0) = -1; }, "context_dmax[4][0]"},
+      {"NegativeContextDmax", [](Map* m) { m->context_dmax(4, 0) = HalfBits(-1); },
+       "context_dmax[4][0]"},
       {"NaNPosition", [](Map* m) { m->mean_y[3] = kNaN; }, "mean_y[3] is nan"},
       {"NaNObservation", [](Map* m) { m->observation_x[0] = kNaN; }, "observation_x[0] is nan"},
       {"InfiniteQuality", [](Map* m) { m->quality[2] = kInf; }, "quality[2] is inf"},
-      {"CooccurrenceAboveOne", [](Map* m) { m->neighbours[0].cooccurrence = 1.5f; },
-       "neighbours[0].cooccurrence is 1.5, must be in [0, 1]"},
-      {"ZeroDistanceVariance", [](Map* m) { m->neighbours[1].distance_var = 0; },
+      {"ZeroDistanceVariance", [](Map* m) { m->neighbours[1].distance_sd = 0; },
        "neighbours[1].distance_var is 0"},
-      {"NegativeAngleDmax", [](Map* m) { m->neighbours[2].angle_dmax = -1; },
-       "neighbours[2].angle_dmax is -1"},
-      {"NaNAngle", [](Map* m) { m->neighbours[0].angle_mean = kNaN; },
-       "neighbours[0].angle_mean is nan"},
+      {"ZeroAngleVariance", [](Map* m) { m->neighbours[2].angle_sd = 0; },
+       "neighbours[2].angle_var is 0"},
   };
 }
 

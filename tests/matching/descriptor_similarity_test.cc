@@ -22,8 +22,8 @@ FeatureSet FeaturesNear(const Map& map, int count, uint32_t seed) {
   for (int i = 0; i < count; ++i) {
     const int g = pick(rng);
     for (int c = 0; c < kDescriptorSize; ++c) {
-      f.local(i, c) = map.local_mean(g, c) + noise(rng);
-      f.context(i, c) = map.context_mean(g, c) + noise(rng);
+      f.local(i, c) = map.LocalMeanRow(g)[c] + noise(rng);
+      f.context(i, c) = map.ContextMeanRow(g)[c] + noise(rng);
     }
     f.local.row(i).normalize();
     f.context.row(i).normalize();
@@ -87,7 +87,7 @@ TEST(DescriptorSimilarityTest, ProjectionBoundsEveryDistanceFromBelow) {
     const Eigen::VectorXf pa = map.local_basis.transpose() * a;
     const float ra = (a - map.local_basis * pa).norm();
     for (int g = 0; g < map.num_landmarks(); ++g) {
-      const float exact = (f.local.row(i) - map.local_mean.row(g)).squaredNorm();
+      const float exact = (f.local.row(i) - map.LocalMeanRow(g)).squaredNorm();
       const Eigen::VectorXf pmu = map.local_projected.row(g).transpose();
       const float dr = ra - map.local_residual_norm[g];
       const float bound = (pa - pmu).squaredNorm() + dr * dr;
@@ -105,8 +105,8 @@ TEST(DescriptorSimilarityTest, FeatureAtTheMeanScoresOne) {
   f.image_width = 10;
   f.image_height = 10;
   f.keypoints.resize(1);
-  f.local = map.local_mean.row(17);
-  f.context = map.context_mean.row(17);
+  f.local = map.LocalMeanRow(17);
+  f.context = map.ContextMeanRow(17);
   EXPECT_FLOAT_EQ(DescriptorSimilarity(f, 0, map, 17), 1.0f);
   const auto matches = ComputeDescriptorMatches(f, map, 0.3f, nullptr);
   bool found = false;

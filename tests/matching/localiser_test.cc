@@ -35,8 +35,8 @@ FeatureSet FeaturesOfImage(const Map& map, int l, uint32_t seed) {
   f.local.resize(static_cast<int>(rows.size()) + extra, kDescriptorSize);
   f.context.resize(static_cast<int>(rows.size()) + extra, kDescriptorSize);
   for (size_t i = 0; i < rows.size(); ++i) {
-    f.local.row(i) = map.local_mean.row(rows[i]);
-    f.context.row(i) = map.context_mean.row(rows[i]);
+    f.local.row(i) = map.LocalMeanRow(rows[i]);
+    f.context.row(i) = map.ContextMeanRow(rows[i]);
   }
   for (int i = 0; i < extra; ++i) {
     const int r = static_cast<int>(rows.size()) + i;
@@ -304,8 +304,8 @@ TEST(LocaliserTest, ManyIdenticalFeaturesAreBoundedByTheWorkBudget) {
   f.image_height = map.image_height;
   constexpr int kCopies = 8192;
   f.keypoints.assign(kCopies, {100, 100, 4, 0, 1, 0});
-  f.local = map.local_mean.row(0).replicate(kCopies, 1);
-  f.context = map.context_mean.row(0).replicate(kCopies, 1);
+  f.local = map.LocalMeanRow(0).replicate(kCopies, 1);
+  f.context = map.ContextMeanRow(0).replicate(kCopies, 1);
   MatchOptions options;  // max_matches_per_landmark 32
   const auto capped = Localise(f, map, options, nullptr);
   ASSERT_TRUE(capped.ok()) << capped.status().ToString();

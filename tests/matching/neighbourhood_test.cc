@@ -10,10 +10,13 @@
 namespace sceneloc {
 namespace {
 
-// Three landmarks: g0 with neighbours g1 (p = 1, 10 px to the right) and g2 (p = 0.5,
-// 20 px below). Only the fields eq. 2 reads are filled.
+// Three landmarks: g0 with neighbours g1 (p = 1, 10 px to the right) and g2 (p = 0.6,
+// 20 px below), values the map's packed neighbours hold exactly (compact.h) in its
+// 640-pixel frame. Only the fields eq. 2 reads are filled.
 Map HandMap() {
   Map map;
+  map.image_width = 640;
+  map.image_height = 360;
   map.local_mean.setZero(3, kDescriptorSize);
   Neighbour n1;
   n1.landmark = 1;
@@ -24,10 +27,10 @@ Map HandMap() {
   n1.angle_var = 0.01f;
   Neighbour n2 = n1;
   n2.landmark = 2;
-  n2.cooccurrence = 0.5f;
+  n2.cooccurrence = 0.6f;
   n2.distance_mean = 20;
   n2.angle_mean = static_cast<float>(M_PI / 2);
-  map.neighbours = {n1, n2};
+  map.neighbours = {Pack(n1, 640), Pack(n2, 640)};
   map.neighbour_offsets = {0, 2, 2, 2};
   return map;
 }
@@ -46,9 +49,9 @@ const std::vector<DescriptorMatch> kHandMatches = {{0, 0, 1.0f}, {1, 1, 0.8f}, {
 TEST(NeighbourhoodTest, HandComputedWithAndWithoutCentreTerm) {
   const Map map = HandMap();
   const FeatureSet f = HandFeatures(100);
-  // With the centre term: k=1: 0.8 / 2 = 0.4; k=2: (0.8 + 0.5 * 0.6) / 2.5 = 0.44.
-  EXPECT_NEAR(NeighbourhoodSimilarity(f, map, kHandMatches, 0, 0, true, 0), 0.44f, 1e-6);
-  // Without: k=1: 0.8 / 1 = 0.8; k=2: 1.1 / 1.5 = 0.733; max 0.8.
+  // With the centre term: k=1: 0.8 / 2 = 0.4; k=2: (0.8 + 0.6 * 0.6) / 2.6 = 0.44615.
+  EXPECT_NEAR(NeighbourhoodSimilarity(f, map, kHandMatches, 0, 0, true, 0), 1.16f / 2.6f, 1e-6);
+  // Without: k=1: 0.8 / 1 = 0.8; k=2: 1.16 / 1.6 = 0.725; max 0.8.
   EXPECT_NEAR(NeighbourhoodSimilarity(f, map, kHandMatches, 0, 0, false, 0), 0.8f, 1e-6);
   // Walking only the nearest neighbour: 0.4 with the centre term.
   EXPECT_NEAR(NeighbourhoodSimilarity(f, map, kHandMatches, 0, 0, true, 1), 0.4f, 1e-6);
@@ -64,7 +67,7 @@ TEST(NeighbourhoodTest, ArrangementSimilarityPenalisesWrongGeometry) {
   const double s_distance = std::exp(-distance_error * distance_error / 200.0);
   const double s_angle = std::exp(-std::pow(std::atan2(5.0, 10.0), 2) / 0.02);
   const double k1 = 0.8 * s_distance * s_angle / 2.0;
-  const double k2 = (0.8 * s_distance * s_angle + 0.5 * 0.6) / 2.5;
+  const double k2 = (0.8 * s_distance * s_angle + 0.6 * 0.6) / 2.6;
   EXPECT_NEAR(NeighbourhoodSimilarity(f, map, kHandMatches, 0, 0, true, 0), std::max(k1, k2), 1e-6);
 }
 

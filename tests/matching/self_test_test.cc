@@ -27,7 +27,7 @@ TEST(SelfTestTest, QueryIsTheLocationsOwnLandmarksAsSeenThere) {
       }
       EXPECT_TRUE(seen_here) << "landmark " << g << " of location " << l;
       EXPECT_NEAR(f.local.row(i).norm(), 1.0f, 1e-5f);
-      EXPECT_NEAR(f.local.row(i).dot(map.local_mean.row(g).normalized()), 1.0f, 1e-5f);
+      EXPECT_NEAR(f.local.row(i).dot(map.LocalMeanRow(g).normalized()), 1.0f, 1e-5f);
     }
   }
 }
@@ -47,8 +47,8 @@ TEST(SelfTestTest, MapWithMisattributedLandmarksFails) {
   Map map = test::MakeRandomMap(12, 300, 33);
   // Every location's keypoints come from one landmark's observations: rotate the
   // descriptors so each landmark carries another's means.
-  const DescriptorMatrix local = map.local_mean;
-  const DescriptorMatrix context = map.context_mean;
+  const DescriptorBytes local = map.local_mean;
+  const DescriptorBytes context = map.context_mean;
   const int n = map.num_landmarks();
   for (int g = 0; g < n; ++g) {
     map.local_mean.row(g) = local.row((g + n / 2) % n);

@@ -25,11 +25,13 @@ int UniformInt(std::mt19937& rng, int lo, int hi) {
   return std::uniform_int_distribution<int>(lo, hi)(rng);
 }
 
-// Non-negative rows of unit L2 norm, like SIFT descriptors.
-void FillUnitRows(std::mt19937& rng, DescriptorMatrix* m) {
+// Non-negative rows of unit L2 norm, like SIFT descriptors, as a map holds them (bytes).
+void FillUnitRows(std::mt19937& rng, DescriptorBytes* m) {
+  Eigen::Matrix<float, 1, kDescriptorSize> row;
   for (Eigen::Index i = 0; i < m->rows(); ++i) {
-    for (int j = 0; j < kDescriptorSize; ++j) (*m)(i, j) = Uniform(rng, 0.0f, 1.0f);
-    m->row(i).normalize();
+    for (int j = 0; j < kDescriptorSize; ++j) row[j] = Uniform(rng, 0.0f, 1.0f);
+    row.normalize();
+    for (int j = 0; j < kDescriptorSize; ++j) (*m)(i, j) = UnitByte(row[j]);
   }
 }
 
@@ -44,8 +46,8 @@ void FillDescriptors(std::mt19937& rng, Map* map) {
     map->local_var.push_back(Uniform(rng, 0.02f, 0.1f));
     map->quality.push_back(Uniform(rng, 0.0f, 5.0f));
     for (int h = 0; h < kNumHistograms; ++h) {
-      map->context_dmax(i, h) = Uniform(rng, 0.0f, 0.3f);
-      map->context_var(i, h) = Uniform(rng, 0.002f, 0.05f);
+      map->context_dmax(i, h) = HalfBits(Uniform(rng, 0.0f, 0.3f));
+      map->context_var(i, h) = HalfBits(Uniform(rng, 0.002f, 0.05f));
     }
   }
 }
@@ -137,7 +139,7 @@ void FillNeighbours(std::mt19937& rng, Map* map) {
              (a.distance_mean == b.distance_mean && a.landmark < b.landmark);
     });
     list.resize(std::min<size_t>(list.size(), map->options.max_neighbours));
-    map->neighbours.insert(map->neighbours.end(), list.begin(), list.end());
+    for (const Neighbour& n : list) map->neighbours.push_back(Pack(n, kWidth));
     map->neighbour_offsets.push_back(static_cast<uint32_t>(map->neighbours.size()));
   }
 }
@@ -159,11 +161,18 @@ void FillHeader(int num_images, uint32_t seed, Map* map) {
 void FillHolistic(std::mt19937& rng, Map* map) {
   map->holistic_grid = GridForFrame(kWidth, kHeight, map->options.extractor.holistic);
   for (int i = 0; i < map->num_images() * map->holistic_grid.size(); ++i) {
-    map->holistic.push_back(Uniform(rng, 0.0f, 0.45f));
+    map->holistic.push_back(UnitByte(Uniform(rng, 0.0f, 0.45f)));
   }
 }
 
 }  // namespace
+
+Eigen::Matrix<uint8_t, 1, kDescriptorSize> DescriptorBytesOf(
+    const Eigen::Matrix<float, 1, kDescriptorSize>& values) {
+  Eigen::Matrix<uint8_t, 1, kDescriptorSize> bytes;
+  for (int i = 0; i < kDescriptorSize; ++i) bytes[i] = UnitByte(values[i]);
+  return bytes;
+}
 
 Map MakeRandomMap(int num_images, int num_landmarks, uint32_t seed) {
   std::mt19937 rng(seed);

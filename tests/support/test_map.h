@@ -16,6 +16,10 @@ namespace sceneloc::test {
 // REQUIRES: num_images >= 1, num_landmarks >= 0.
 Map MakeRandomMap(int num_images, int num_landmarks, uint32_t seed);
 
+// A descriptor row as a map stores it (UnitByte of each value).
+Eigen::Matrix<uint8_t, 1, kDescriptorSize> DescriptorBytesOf(
+    const Eigen::Matrix<float, 1, kDescriptorSize>& values);
+
 // Expects (gtest EXPECT_*) that every stored field of `a` and `b` is equal, bit for bit
 // for floats, plus the derived local_mean_sqnorm.
 void ExpectMapsEqual(const Map& a, const Map& b);

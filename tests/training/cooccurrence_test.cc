@@ -11,7 +11,9 @@ namespace {
 // image 1 and (0, 12) in image 2. So p(g1|g0) = 2/3, p(g0|g1) = 1, distances 10 and 12
 // (mean 11, variance 1 -> floored, d_max 1), angles 0 and pi/2 (circular mean pi/4,
 // d_max pi/4, variance (pi/4)^2). The frame is 200 pixels on its long side, so a distance
-// sd floor of 0.01 is 2 pixels (variance 4).
+// sd floor of 0.01 is 2 pixels (variance 4). The map keeps them to its packed precision
+// (compact.h): distances to 200 / 32768 pixels, co-occurrence to 1/255, angles to pi / 32767
+// (mean), pi / 65535 (spread) and pi / 255 (largest deviation).
 TEST(CooccurrenceTest, HandComputedStatistics) {
   Map map;
   map.image_names = {"a", "b", "c"};
@@ -30,19 +32,19 @@ TEST(CooccurrenceTest, HandComputedStatistics) {
   BuildNeighbours(options, &map);
   EXPECT_EQ(map.image_offsets, (std::vector<uint32_t>{0, 1, 3, 5}));
   ASSERT_EQ(map.neighbour_offsets, (std::vector<uint32_t>{0, 1, 2}));
-  const Neighbour& n = map.neighbours[0];
+  const Neighbour n = map.NeighbourAt(0);
   EXPECT_EQ(n.landmark, 1u);
-  EXPECT_NEAR(n.cooccurrence, 2.0f / 3.0f, 1e-6);
-  EXPECT_NEAR(n.distance_mean, 11.0f, 1e-5);
-  EXPECT_NEAR(n.distance_var, 4.0f, 1e-6);  // raw variance 1 is below the floor
-  EXPECT_NEAR(n.distance_dmax, 1.0f, 1e-5);
-  EXPECT_NEAR(n.angle_mean, M_PI / 4, 1e-5);
-  EXPECT_NEAR(n.angle_dmax, M_PI / 4, 1e-5);
-  EXPECT_NEAR(n.angle_var, M_PI * M_PI / 16, 1e-5);
-  const Neighbour& back = map.neighbours[1];
+  EXPECT_NEAR(n.cooccurrence, 2.0f / 3.0f, 0.5 / 255);
+  EXPECT_NEAR(n.distance_mean, 11.0f, 0.004);
+  EXPECT_NEAR(n.distance_var, 4.0f, 0.02);  // raw variance 1 is below the floor
+  EXPECT_NEAR(n.distance_dmax, 1.0f, 0.004);
+  EXPECT_NEAR(n.angle_mean, M_PI / 4, 1e-4);
+  EXPECT_NEAR(n.angle_dmax, M_PI / 4, M_PI / 510);
+  EXPECT_NEAR(n.angle_var, M_PI * M_PI / 16, 1e-4);
+  const Neighbour back = map.NeighbourAt(1);
   EXPECT_EQ(back.landmark, 0u);
   EXPECT_FLOAT_EQ(back.cooccurrence, 1.0f);
-  EXPECT_NEAR(back.angle_mean, -3 * M_PI / 4, 1e-5);  // the reverse direction
+  EXPECT_NEAR(back.angle_mean, -3 * M_PI / 4, 1e-4);  // the reverse direction
 }
 
 // Only the max_neighbours nearest (by mean position) are kept, nearest first.

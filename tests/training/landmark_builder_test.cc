@@ -7,7 +7,9 @@ namespace {
 
 // Fusion of a 2-feature track by hand: local a1 = e0, a2 = e1 (unit axes) -> mean
 // (0.5, 0.5, 0...), each 1/sqrt(2) from it: d_max = 0.7071, sigma^2 = 0.5. Context: both
-// features equal, so every histogram has d_max = 0 and sigma^2 at the floor.
+// features equal, so every histogram has d_max = 0 and sigma^2 at the floor. The map holds
+// the means as bytes (compact.h) and measures the spreads from what it holds: within a
+// byte's step (1/255) of those figures.
 TEST(LandmarkBuilderTest, FusesMeanDmaxAndFlooredVariance) {
   std::vector<FeatureSet> tour(2);
   for (int l = 0; l < 2; ++l) {
@@ -20,13 +22,14 @@ TEST(LandmarkBuilderTest, FusesMeanDmaxAndFlooredVariance) {
   Map map;
   FuseLandmarks({{{0, 0}, {1, 0}}}, WholeTour(tour), options, &map);
   ASSERT_EQ(map.num_landmarks(), 1);
-  EXPECT_FLOAT_EQ(map.local_mean(0, 0), 0.5f);
-  EXPECT_FLOAT_EQ(map.local_mean(0, 1), 0.5f);
-  EXPECT_NEAR(map.local_dmax[0], std::sqrt(0.5f), 1e-6);
-  EXPECT_NEAR(map.local_var[0], 0.5f, 1e-6);
+  EXPECT_EQ(map.local_mean(0, 0), UnitByte(0.5f));
+  EXPECT_EQ(map.local_mean(0, 1), UnitByte(0.5f));
+  EXPECT_EQ(map.local_mean(0, 2), 0);
+  EXPECT_NEAR(map.local_dmax[0], std::sqrt(0.5f), 0.5f / 255);
+  EXPECT_NEAR(map.local_var[0], 0.5f, 0.5f / 255);
   for (int h = 0; h < kNumHistograms; ++h) {
-    EXPECT_NEAR(map.context_dmax(0, h), 0.0f, 1e-6);
-    EXPECT_FLOAT_EQ(map.context_var(0, h), float(options.context_var_floor));
+    EXPECT_NEAR(map.ContextDmax(0, h), 0.0f, std::sqrt(8.0f) * 0.5f / 255);
+    EXPECT_NEAR(map.ContextVar(0, h), float(options.context_var_floor), 1e-5);
   }
   EXPECT_FLOAT_EQ(map.mean_x[0], 12.0f);
   EXPECT_FLOAT_EQ(map.mean_y[0], 20.0f);

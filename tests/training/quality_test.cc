@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "common/matching/descriptor_similarity.h"
+#include "tests/support/test_map.h"
 
 namespace sceneloc {
 namespace {
@@ -27,13 +28,13 @@ TEST(QualityTest, HandComputedEquationFour) {
   map.image_width = map.image_height = 100;
   map.local_mean.resize(2, kDescriptorSize);
   map.context_mean.resize(2, kDescriptorSize);
-  map.local_mean.row(0) = Unit(0);
-  map.local_mean.row(1) = Unit(1);
+  map.local_mean.row(0) = test::DescriptorBytesOf(Unit(0));
+  map.local_mean.row(1) = test::DescriptorBytesOf(Unit(1));
   map.context_mean = map.local_mean;
   map.local_dmax = {0.01f, 0.01f};
   map.local_var = {0.001f, 0.001f};
-  map.context_dmax.setConstant(2, kNumHistograms, 0.01f);
-  map.context_var.setConstant(2, kNumHistograms, 0.001f);
+  map.context_dmax.setConstant(2, kNumHistograms, HalfBits(0.01f));
+  map.context_var.setConstant(2, kNumHistograms, HalfBits(0.001f));
   map.Finalize();  // the derived fields S_D reads
 
   std::vector<FeatureSet> tour(2);
