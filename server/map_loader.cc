@@ -12,6 +12,8 @@
 #include <optional>
 #include <set>
 
+#include "common/util/timer.h"
+
 namespace sceneloc {
 namespace {
 
@@ -28,15 +30,23 @@ std::set<std::string> MapFilesIn(const std::string& dir) {
   return maps;
 }
 
-void LogLoad(const std::string& why, const std::string& map, const MapLoader::LoadResult& result) {
+// Loads `path` into the registry, timed, and logs the outcome.
+MapLoader::LoadResult LoadAndLog(const std::string& why, const std::string& map,
+                                 const std::string& path, MapRegistry* registry) {
+  Stopwatch watch;
+  MapLoader::LoadResult result = registry->Load(path);
   if (result.ok()) {
     const LoadedMap& m = **result;
-    spdlog::info("{}: map {} generation {} checksum {:08x} now serving ({} locations, {})", why,
-                 m.name, m.generation, m.checksum, m.map.num_images(), m.path);
+    spdlog::info(
+        "{}: map {} generation {} checksum {:08x} now serving ({} locations, {:.1f} MB in memory, "
+        "{}) after {:.0f} ms",
+        why, m.name, m.generation, m.checksum, m.map.num_images(), m.map.MemoryBytes() / 1e6,
+        m.path, watch.Milliseconds());
   } else {
     spdlog::error("{}: map {} not reloaded, the version serving (if any) stays: {}", why, map,
                   result.status().ToString());
   }
+  return result;
 }
 
 }  // namespace
@@ -260,7 +270,7 @@ void MapLoader::SyncFile(const std::string& map) {
   const std::string path = PathOf(map);
   std::error_code ec;
   if (fs::is_regular_file(path, ec)) {
-    LogLoad("file changed", map, registry_->Load(path));
+    LoadAndLog("file changed", map, path, registry_);
     return;
   }
   if (registry_->Remove(map)) {
@@ -273,7 +283,7 @@ void MapLoader::SyncFolder() {
   const std::set<std::string> files = MapFilesIn(options_.maps_dir);
   for (const std::string& map : files) {
     if (Stopping()) return;
-    LogLoad("reload all", map, registry_->Load(PathOf(map)));
+    LoadAndLog("reload all", map, PathOf(map), registry_);
   }
   for (const auto& loaded : registry_->List()) {
     if (files.count(loaded->name) == 0) SyncFile(loaded->name);
@@ -282,10 +292,10 @@ void MapLoader::SyncFolder() {
 
 void MapLoader::RunTask(Task& task) {
   if (task.map.empty()) return SyncFolder();
-  LoadResult result = registry_->Load(PathOf(task.map));
-  LogLoad(task.done.size() > 1 ? "ReloadMap (" + std::to_string(task.done.size()) + " coalesced)"
-                               : std::string("ReloadMap"),
-          task.map, result);
+  LoadResult result = LoadAndLog(
+      task.done.size() > 1 ? "ReloadMap (" + std::to_string(task.done.size()) + " coalesced)"
+                           : std::string("ReloadMap"),
+      task.map, PathOf(task.map), registry_);
   for (Done& done : task.done) {
     if (done) done(&result);
   }

@@ -16,6 +16,7 @@
 #include "common/features/opencv_threads.h"
 #include "common/util/malloc_policy.h"
 #include "common/util/thread_pool.h"
+#include "common/util/timer.h"
 #include "server/map_registry.h"
 #include "server/server.h"
 #include "server/server_options.h"
@@ -43,7 +44,9 @@ Status ResolveOptions(const std::string& config_path,
 bool LoadAll(sceneloc::MapRegistry* registry, const std::string& dir) {
   std::vector<Status> failures;
   std::vector<std::string> ignored;
+  const sceneloc::Stopwatch watch;
   const Status listed = registry->LoadDirectory(dir, &failures, &ignored);
+  const double ms = watch.Milliseconds();
   if (!listed.ok()) {
     spdlog::error("{}", listed.message());
     return false;
@@ -57,10 +60,12 @@ bool LoadAll(sceneloc::MapRegistry* registry, const std::string& dir) {
                  ignored.size() == 1 ? "y" : "ies", names);
   }
   for (const auto& map : registry->List()) {
-    spdlog::info("map {} generation {} checksum {:08x}: {} locations, {} landmarks ({})", map->name,
-                 map->generation, map->checksum, map->map.num_images(), map->map.num_landmarks(),
-                 map->path);
+    spdlog::info("map {} generation {} checksum {:08x}: {} locations, {} landmarks, {:.1f} MB in "
+                 "memory ({})",
+                 map->name, map->generation, map->checksum, map->map.num_images(),
+                 map->map.num_landmarks(), map->map.MemoryBytes() / 1e6, map->path);
   }
+  spdlog::info("{} map(s) loaded from {} after {:.0f} ms", registry->List().size(), dir, ms);
   return true;
 }
 

@@ -51,8 +51,8 @@ struct RequestLimits {
   // passes over the whole image once per scan.
   int max_jpeg_scans = 64;
   // Largest map file the server reads, bytes; larger files in maps_dir are logged, counted
-  // and skipped unread (a 200-image tour makes a 22 MB map).
-  int64_t max_map_bytes = int64_t{1} << 30;
+  // and skipped unread (a 200-location map is about 7 MB, a 20,000-location one 0.7 GB).
+  int64_t max_map_bytes = int64_t{4} << 30;
   // Requests one connection may have queued or running at once; one more gets OVERLOADED
   // (a client that floods cannot fill the queue ahead of the others by itself).
   int max_in_flight_per_client = 8;

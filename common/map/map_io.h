@@ -119,8 +119,9 @@ struct MapFileInfo {
 // On success, fills *info when info is not null.
 Status SaveMap(const Map& map, const std::string& path, MapFileInfo* info = nullptr);
 
-// The largest map file LoadMap reads by default: 1 GiB (a 200-image tour makes 22 MB).
-inline constexpr uint64_t kDefaultMaxMapBytes = uint64_t{1} << 30;
+// The largest map file LoadMap reads by default: 4 GiB (a 20,000-location map is about
+// 0.7 GB; a 200-location one 7 MB).
+inline constexpr uint64_t kDefaultMaxMapBytes = uint64_t{4} << 30;
 
 struct MapLoadOptions {
   uint64_t max_file_bytes = kDefaultMaxMapBytes;  // larger files are refused unread

@@ -279,7 +279,7 @@ TEST_F(MapIoTest, HugeFilesAreRefusedFromTheirHeader) {
   make_sparse(header);
   ExpectLoadFailsAt(path_, StatusCode::kResourceExhausted,
                     "is 107374182400 bytes (102400.0 MiB), above the limit max_map_bytes = "
-                    "1073741824 bytes (1024.0 MiB)");
+                    "4294967296 bytes (4096.0 MiB)");
 }
 
 // The limit is the caller's: a real map above it is refused, at it loaded.

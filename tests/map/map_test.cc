@@ -53,7 +53,8 @@ TEST(MapTest, FinalizeComputesSquaredNorms) {
 TEST(MapTest, MemoryBytesCoversTheArrays) {
   const Map small = MakeRandomMap(10, 20, 1);
   const Map large = MakeRandomMap(10, 400, 1);
-  const size_t descriptors = 400 * (2 * kDescriptorSize + 2 * kNumHistograms) * sizeof(float);
+  // Two byte descriptors and two half-float spreads per landmark (compact.h).
+  const size_t descriptors = 400 * (2 * kDescriptorSize + 2 * kNumHistograms * sizeof(uint16_t));
   EXPECT_GE(large.MemoryBytes(), descriptors);
   EXPECT_GT(large.MemoryBytes(), small.MemoryBytes());
 }
