@@ -157,8 +157,12 @@ std::vector<uint32_t> Nearest(const DescriptorMatrix& x, const DescriptorMatrix&
 
 }  // namespace
 
+std::vector<uint32_t> AssignCells(const Vocabulary& v, const DescriptorMatrix& descriptors) {
+  return Nearest(descriptors, v.centroids.topRows(v.coarse));
+}
+
 std::vector<uint32_t> AssignWords(const Vocabulary& v, const DescriptorMatrix& descriptors) {
-  const std::vector<uint32_t> cell = Nearest(descriptors, v.centroids.topRows(v.coarse));
+  const std::vector<uint32_t> cell = AssignCells(v, descriptors);
   // Rows grouped by cell, each group against its cell's words in one product.
   std::vector<std::vector<uint32_t>> members(static_cast<size_t>(v.coarse));
   for (size_t i = 0; i < cell.size(); ++i) members[cell[i]].push_back(static_cast<uint32_t>(i));

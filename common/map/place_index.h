@@ -89,8 +89,14 @@ struct InvertedFile {
 InvertedFile BuildInvertedFile(const PlaceIndex& index, const std::vector<uint32_t>& image_offsets,
                                const std::vector<uint32_t>& image_landmarks);
 
-// The word of each row of `descriptors`: the nearest word of the nearest coarse cell.
+// The coarse cell of each row of `descriptors`: the nearest of the first vocabulary.coarse
+// centroids (which is all the training's first level has).
 // REQUIRES: !vocabulary.empty().
+std::vector<uint32_t> AssignCells(const Vocabulary& vocabulary,
+                                  const DescriptorMatrix& descriptors);
+
+// The word of each row of `descriptors`: the nearest word of the nearest coarse cell.
+// REQUIRES: !vocabulary.empty() and every cell's words present.
 std::vector<uint32_t> AssignWords(const Vocabulary& vocabulary,
                                   const DescriptorMatrix& descriptors);
 

@@ -42,8 +42,9 @@ DescriptorMatrix GatherMeans(const Map& map, const std::vector<uint32_t>& rows) 
   return out;
 }
 
-// AssignWords over every landmark's mean, a block of values at a time.
-std::vector<uint32_t> LandmarkWords(const Vocabulary& v, const Map& map) {
+// `assign` (AssignCells or AssignWords) over every landmark's mean, a block at a time.
+using AssignFn = std::vector<uint32_t> (*)(const Vocabulary&, const DescriptorMatrix&);
+std::vector<uint32_t> AssignLandmarks(const Vocabulary& v, const Map& map, AssignFn assign) {
   constexpr size_t kBlock = 65536;
   const size_t n = static_cast<size_t>(map.num_landmarks());
   std::vector<uint32_t> words, rows;
@@ -53,7 +54,7 @@ std::vector<uint32_t> LandmarkWords(const Vocabulary& v, const Map& map) {
     for (size_t g = begin; g < std::min(n, begin + kBlock); ++g) {
       rows.push_back(static_cast<uint32_t>(g));
     }
-    const std::vector<uint32_t> block = AssignWords(v, GatherMeans(map, rows));
+    const std::vector<uint32_t> block = assign(v, GatherMeans(map, rows));
     words.insert(words.end(), block.begin(), block.end());
   }
   return words;
@@ -112,8 +113,7 @@ void BuildVocabulary(Map* map, ThreadPool* pool) {
   v.centroids.topRows(side) = KMeans(sample, side, &rng);
   // Each cell's words from its own landmarks (all of the map's, sampled), the cells in
   // parallel with a seed each.
-  const std::vector<uint32_t> cell_of =
-      LandmarkWords(Vocabulary{side, 1, v.centroids.topRows(side)}, *map);
+  const std::vector<uint32_t> cell_of = AssignLandmarks(v, *map, AssignCells);
   std::vector<std::vector<uint32_t>> members(static_cast<size_t>(side));
   for (size_t g = 0; g < n; ++g) members[cell_of[g]].push_back(static_cast<uint32_t>(g));
   auto fit = [&](size_t begin, size_t end) {
@@ -141,7 +141,7 @@ void BuildVocabulary(Map* map, ThreadPool* pool) {
   } else {
     fit(0, members.size());
   }
-  map->place_index.landmark_word = LandmarkWords(v, *map);
+  map->place_index.landmark_word = AssignLandmarks(v, *map, AssignWords);
 }
 
 // The axes of one shift from the sampled locations' centred values (a Gram matrix of at

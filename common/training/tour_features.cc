@@ -64,6 +64,17 @@ int OpenUnnamed(const std::string& dir) {
   return named;
 }
 
+// memcpy and string::append with an empty source: an empty vector's or matrix's data() may
+// be null, which memcpy must never be given, even for zero bytes.
+void AppendBytes(std::string* record, const void* p, size_t n) {
+  if (n > 0) record->append(static_cast<const char*>(p), n);
+}
+
+const char* TakeBytes(const char* p, void* out, size_t n) {
+  if (n > 0) std::memcpy(out, p, n);
+  return p + n;
+}
+
 }  // namespace
 
 TourWindow WholeTour(const std::vector<FeatureSet>& tour) {
@@ -100,13 +111,10 @@ Status FeatureSpool::Append(const FeatureSet& f) {
   record.reserve(sizeof(header) + header.count * sizeof(Keypoint) + 2 * descriptor_bytes +
                  f.holistic.size() * sizeof(float));
   record.append(reinterpret_cast<const char*>(&header), sizeof(header));
-  record.append(reinterpret_cast<const char*>(f.keypoints.data()),
-                f.keypoints.size() * sizeof(Keypoint));
-  record.append(reinterpret_cast<const char*>(f.local.data()), descriptor_bytes);
-  record.append(reinterpret_cast<const char*>(f.context.data()),
-                static_cast<size_t>(f.context.size()) * sizeof(float));
-  record.append(reinterpret_cast<const char*>(f.holistic.data()),
-                f.holistic.size() * sizeof(float));
+  AppendBytes(&record, f.keypoints.data(), f.keypoints.size() * sizeof(Keypoint));
+  AppendBytes(&record, f.local.data(), descriptor_bytes);
+  AppendBytes(&record, f.context.data(), static_cast<size_t>(f.context.size()) * sizeof(float));
+  AppendBytes(&record, f.holistic.data(), f.holistic.size() * sizeof(float));
   const uint64_t at = offsets_.back();
   if (!WriteAll(fd_, record.data(), record.size(), at)) {
     return IoError("cannot write the feature spool in '" + dir_ + "' (image " +
@@ -132,18 +140,15 @@ StatusOr<FeatureSet> FeatureSpool::Read(size_t image) const {
   f.holistic_grid = header.holistic_grid;
   const char* p = record.data() + sizeof(header);
   f.keypoints.resize(header.count);
-  std::memcpy(f.keypoints.data(), p, header.count * sizeof(Keypoint));
-  p += header.count * sizeof(Keypoint);
+  p = TakeBytes(p, f.keypoints.data(), header.count * sizeof(Keypoint));
   f.local.resize(header.count, kDescriptorSize);
   f.context.resize(header.count, kDescriptorSize);
   const size_t descriptor_bytes =
       static_cast<size_t>(header.count) * kDescriptorSize * sizeof(float);
-  std::memcpy(f.local.data(), p, descriptor_bytes);
-  p += descriptor_bytes;
-  std::memcpy(f.context.data(), p, descriptor_bytes);
-  p += descriptor_bytes;
+  p = TakeBytes(p, f.local.data(), descriptor_bytes);
+  p = TakeBytes(p, f.context.data(), descriptor_bytes);
   f.holistic.resize(header.holistic_values);
-  std::memcpy(f.holistic.data(), p, header.holistic_values * sizeof(float));
+  TakeBytes(p, f.holistic.data(), header.holistic_values * sizeof(float));
   return f;
 }
 
