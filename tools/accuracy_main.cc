@@ -6,7 +6,8 @@
 // (scripts/accuracy.sh adds OUT/accuracy.png). Run from the repository root:
 //   sceneloc-accuracy --data ../shared/data --out accuracy-out [--sets gp_day,corridor]
 // `--sets swapped` runs the three sets with tour and queries swapped instead (SwappedSuite):
-// maps nothing was tuned on.
+// maps nothing was tuned on. `--distractors DIR` runs every set on a map padded to
+// --distractor-locations (tools/eval/distractor_suite.h): the route a small part of a campus.
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -17,8 +18,10 @@
 #include <thread>
 
 #include "common/config/config.h"
+#include "common/util/image_folder.h"
 #include "common/util/timer.h"
 #include "tools/eval/accuracy_suite.h"
+#include "tools/eval/distractor_suite.h"
 #include "tools/eval/reliability_plot.h"
 #include "tools/eval/report_json.h"
 
@@ -36,10 +39,16 @@ struct Row {
   const sl::MethodSummary* summary;
 };
 
+// The methods a set ran: ours, and the paper's and the baselines' unless on distractors.
 std::vector<Row> Rows(const sl::SetResult& r) {
-  return {{"sceneloc", &r.summary.ours},     {"in session", &r.in_session},
-          {"session", &r.session},           {"paper", &r.paper},
-          {"baseline", &r.summary.baseline}, {"baseline+ransac", &r.summary.reranked}};
+  std::vector<Row> rows = {
+      {"sceneloc", &r.summary.ours}, {"in session", &r.in_session}, {"session", &r.session}};
+  if (r.comparisons) {
+    rows.insert(rows.end(), {{"paper", &r.paper},
+                             {"baseline", &r.summary.baseline},
+                             {"baseline+ransac", &r.summary.reranked}});
+  }
+  return rows;
 }
 
 // Each verified candidate as [location, holistic_z, inliers, log_scale, holistic]: what its
@@ -56,25 +65,28 @@ nlohmann::json QueriesJson(const sl::SetResult& r) {
   nlohmann::json out = nlohmann::json::array();
   for (size_t q = 0; q < r.outcomes.size(); ++q) {
     const sl::QueryOutcome& o = r.outcomes[q];
-    out.push_back(
-        {{"query", o.name},
-         {"truth", o.truth},
-         {"sceneloc", {o.ours.predicted, o.ours.confidence}},
-         {"in session", {r.in_session_outcomes[q].predicted, r.in_session_outcomes[q].confidence}},
-         {"session", {r.session_outcomes[q].predicted, r.session_outcomes[q].confidence}},
-         {"paper", {r.paper_outcomes[q].predicted, r.paper_outcomes[q].confidence}},
-         {"baseline", {o.baseline.predicted, o.baseline.confidence}},
-         {"baseline+ransac", {o.reranked.predicted, o.reranked.confidence}},
-         // What our confidence is made of (common/matching/confidence.h): every
-         // location's fused evidence, P(in the map), the verified candidates (whose
-         // scores the average over cameras re-reads) and the camera they were read with
-         // and its doubt, so that its constants can be re-fitted offline
-         // (scripts/fit_confidence.py).
-         {"evidence",
-          {{"in_map", o.in_map},
-           {"scores", o.location_scores},
-           {"candidates", CandidatesJson(o.candidates)},
-           {"camera", {o.camera_log_scale, o.camera_log_doubt}}}}});
+    nlohmann::json query = {
+        {"query", o.name},
+        {"truth", o.truth},
+        {"sceneloc", {o.ours.predicted, o.ours.confidence}},
+        {"in session", {r.in_session_outcomes[q].predicted, r.in_session_outcomes[q].confidence}},
+        {"session", {r.session_outcomes[q].predicted, r.session_outcomes[q].confidence}},
+        // What our confidence is made of (common/matching/confidence.h): every
+        // location's fused evidence, P(in the map), the verified candidates (whose
+        // scores the average over cameras re-reads) and the camera they were read with
+        // and its doubt, so that its constants can be re-fitted offline
+        // (scripts/fit_confidence.py).
+        {"evidence",
+         {{"in_map", o.in_map},
+          {"scores", o.location_scores},
+          {"candidates", CandidatesJson(o.candidates)},
+          {"camera", {o.camera_log_scale, o.camera_log_doubt}}}}};
+    if (r.comparisons) {
+      query["paper"] = {r.paper_outcomes[q].predicted, r.paper_outcomes[q].confidence};
+      query["baseline"] = {o.baseline.predicted, o.baseline.confidence};
+      query["baseline+ransac"] = {o.reranked.predicted, o.reranked.confidence};
+    }
+    out.push_back(std::move(query));
   }
   return out;
 }
@@ -241,8 +253,14 @@ PooledSummaries PoolSets(const std::vector<sl::SetResult>& results, const sl::Ju
           sl::PooledSummary(results, /*unchanged_only=*/false, judging)};
 }
 
-std::vector<Row> SummaryRows(const sl::EvalSummary& s) {
+std::vector<Row> SummaryRows(const sl::EvalSummary& s, bool comparisons) {
+  if (!comparisons) return {{"sceneloc", &s.ours}};
   return {{"sceneloc", &s.ours}, {"baseline", &s.baseline}, {"baseline+ransac", &s.reranked}};
+}
+
+// Whether the sets ran the paper's map and the baselines (all do, or none: distractors).
+bool Comparisons(const std::vector<sl::SetResult>& results) {
+  return results.empty() || results[0].comparisons;
 }
 
 // The confidence of every set: ours and the baselines' (vote share), with our out-of-map
@@ -263,9 +281,9 @@ void PrintConfidenceTable(const std::vector<sl::SetResult>& results, const Poole
     PrintConfidenceRows(r.set.name, Rows(r), negatives);
   }
   PrintConfidenceRows("pooled: real " + std::to_string(pooled.real.queries),
-                      SummaryRows(pooled.real), "");
-  PrintConfidenceRows("pooled: all " + std::to_string(pooled.all.queries), SummaryRows(pooled.all),
-                      "");
+                      SummaryRows(pooled.real, Comparisons(results)), "");
+  PrintConfidenceRows("pooled: all " + std::to_string(pooled.all.queries),
+                      SummaryRows(pooled.all, Comparisons(results)), "");
 }
 
 std::string Hostname() {
@@ -282,6 +300,8 @@ struct Args {
   std::vector<std::string> only, variants;
   bool ablation = false;
   int tour_limit = 0, query_limit = 0;
+  std::string distractors_dir;  // "" = each set's own map (distractor_suite.h)
+  sl::DistractorOptions distractors;
   sl::SuiteContext context;
 };
 
@@ -311,6 +331,16 @@ void AddOptions(CLI::App* app, Args* a) {
                 "run the ablation instead: every variant on every set (OUT/ablation.csv)");
   app->add_option("--variants", a->variants, "with --ablation: only these variants")
       ->delimiter(',');
+  app->add_option("--distractors", a->distractors_dir,
+                  "pad every set's map to --distractor-locations with the other data set's "
+                  "frames, then these images in name order (e.g. sceneloc-gentour --passes "
+                  "tour); ours only");
+  app->add_option("--distractor-locations", a->distractors.locations,
+                  "with --distractors: every padded map's size")
+      ->capture_default_str()
+      ->check(CLI::Range(2, 10000000));
+  app->add_option("--offroute", a->distractors.offroute_dir,
+                  "with --distractors: frames of no map, counted when LOCALISED");
 }
 
 // Ours and the paper's settings, from their four files (all are read; the first error
@@ -380,12 +410,19 @@ void WriteCsvRows(const sl::SuiteSet& set, const sl::SetResult& result, std::ofs
 
 // accuracy.json's description of the run, before any set's figures.
 nlohmann::json RunJson(const Args& a, const sl::SuiteSettings& settings) {
-  return {{"host", Hostname()},
-          {"threads", a.context.threads},
-          {"hardware_threads", std::thread::hardware_concurrency()},
-          {"train_settings", sl::TrainOptionsToYaml(settings.train)},
-          {"match_settings", sl::MatchOptionsToYaml(settings.match)},
-          {"sets", nlohmann::json::array()}};
+  nlohmann::json run = {{"host", Hostname()},
+                        {"threads", a.context.threads},
+                        {"hardware_threads", std::thread::hardware_concurrency()},
+                        {"train_settings", sl::TrainOptionsToYaml(settings.train)},
+                        {"match_settings", sl::MatchOptionsToYaml(settings.match)},
+                        {"sets", nlohmann::json::array()}};
+  if (!a.distractors_dir.empty()) {
+    run["distractors"] = {{"dir", a.distractors_dir},
+                          {"images", a.distractors.generated.size()},
+                          {"locations", a.distractors.locations},
+                          {"offroute", a.distractors.offroute_dir}};
+  }
+  return run;
 }
 
 // Every set with our settings: the table, OUT/accuracy.csv, .json and reliability.png.
@@ -402,7 +439,9 @@ int RunSuite(const Args& a, const sl::SuiteSettings& settings,
   PrintHeader();
   for (const sl::SuiteSet& set : sets) {
     std::fprintf(stderr, "sceneloc-accuracy: %s ...\n", set.name.c_str());
-    auto result = sl::RunSet(set, settings, a.context);
+    auto result = a.distractors_dir.empty()
+                      ? sl::RunSet(set, settings, a.context)
+                      : sl::RunSetWithDistractors(set, settings, a.context, a.distractors);
     if (!result.ok()) return Fail(set.name + ": " + result.status().message());
     PrintSet(*result);
     json["sets"].push_back(SetJson(*result));
@@ -417,7 +456,9 @@ int RunSuite(const Args& a, const sl::SuiteSettings& settings,
        {std::pair<std::string, const sl::EvalSummary*>{"real", &pooled.real},
         {"all", &pooled.all}}) {
     nlohmann::json methods;
-    for (const Row& row : SummaryRows(*summary)) methods[row.method] = sl::MethodJson(*row.summary);
+    for (const Row& row : SummaryRows(*summary, Comparisons(results))) {
+      methods[row.method] = sl::MethodJson(*row.summary);
+    }
     json["pooled"][name] = {{"queries", summary->queries}, {"methods", methods}};
   }
   PrintWalks(results);
@@ -449,5 +490,10 @@ int main(int argc, char** argv) {
   std::error_code ec;
   std::filesystem::create_directories(a.out_dir, ec);
   if (a.ablation) return RunAblation(sets, settings, a.variants, a.context, a.out_dir);
+  if (!a.distractors_dir.empty()) {
+    auto generated = sl::ListImageFiles(a.distractors_dir);
+    if (!generated.ok()) return Fail(generated.status().message());
+    a.distractors.generated = std::move(generated).value();
+  }
   return RunSuite(a, settings, sets);
 }

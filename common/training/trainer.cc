@@ -300,15 +300,24 @@ StatusOr<std::vector<FeatureSet>> ExtractImages(const std::vector<std::string>& 
 
 namespace {
 
-// Where the images of a tour whose first image is `first` are extracted (TourTarget for the
-// first's size; others as queries into its frame).
-StatusOr<TargetFn> TourTargets(const std::string& first_path, const ExtractorOptions& options) {
+// The first image's size and the tour frame it gives.
+struct TourFrame {
+  cv::Size size;
+  ExtractionTarget frame;
+};
+
+StatusOr<TourFrame> FirstFrame(const std::string& first_path, const ExtractorOptions& options) {
   SCENELOC_ASSIGN_OR_RETURN(const cv::Mat first, ReadImageFile(first_path));
-  const ExtractionTarget frame = TourTarget(first.cols, first.rows, options);
-  const cv::Size size = first.size();
-  return TargetFn([frame, size](int width, int height) {
-    if (width == size.width && height == size.height) return frame;
-    return QueryTarget(width, height, frame.width, frame.holistic);
+  return TourFrame{first.size(), TourTarget(first.cols, first.rows, options)};
+}
+
+// Where the images of a tour are extracted: TourTarget for the first's size; others as
+// queries into its frame, counted in `mixed` when it is not null.
+TargetFn TourTargets(const TourFrame& first, std::atomic<size_t>* mixed) {
+  return TargetFn([first, mixed](int width, int height) {
+    if (width == first.size.width && height == first.size.height) return first.frame;
+    if (mixed != nullptr) ++*mixed;
+    return QueryTarget(width, height, first.frame.width, first.frame.holistic);
   });
 }
 
@@ -319,8 +328,28 @@ StatusOr<std::vector<FeatureSet>> ExtractFolder(const std::vector<std::string>& 
                                                 const ProgressFn& progress, size_t* mixed_sizes) {
   SCENELOC_RETURN_IF_ERROR(options.Validate());
   if (image_paths.empty()) return FailedPrecondition("no tour image to extract");
-  SCENELOC_ASSIGN_OR_RETURN(const TargetFn target, TourTargets(image_paths[0], options));
-  return ExtractImages(image_paths, options, target, threads, progress, mixed_sizes);
+  SCENELOC_ASSIGN_OR_RETURN(const TourFrame first, FirstFrame(image_paths[0], options));
+  return ExtractImages(image_paths, options, TourTargets(first, nullptr), threads, progress,
+                       mixed_sizes);
+}
+
+Status ExtractToSpool(const std::vector<std::string>& image_paths, const ExtractorOptions& options,
+                      const TargetFn& target, int threads, const ProgressFn& progress,
+                      FeatureSpool* spool) {
+  SCENELOC_RETURN_IF_ERROR(options.Validate());
+  const size_t batch = kBatchImages * static_cast<size_t>(std::max(1, threads));
+  for (size_t begin = 0; begin < image_paths.size(); begin += batch) {
+    const size_t end = std::min(image_paths.size(), begin + batch);
+    const std::vector<std::string> paths(image_paths.begin() + static_cast<std::ptrdiff_t>(begin),
+                                         image_paths.begin() + static_cast<std::ptrdiff_t>(end));
+    const auto batch_progress = [&](const std::string& stage, size_t done, size_t) {
+      Report(progress, stage.c_str(), begin + done, image_paths.size());
+    };
+    SCENELOC_ASSIGN_OR_RETURN(const std::vector<FeatureSet> features,
+                              ExtractImages(paths, options, target, threads, batch_progress));
+    for (const FeatureSet& f : features) SCENELOC_RETURN_IF_ERROR(spool->Append(f));
+  }
+  return Status::Ok();
 }
 
 Status ExtractToSpool(const std::vector<std::string>& image_paths, const ExtractorOptions& options,
@@ -328,24 +357,11 @@ Status ExtractToSpool(const std::vector<std::string>& image_paths, const Extract
                       size_t* mixed_sizes) {
   SCENELOC_RETURN_IF_ERROR(options.Validate());
   if (image_paths.empty()) return FailedPrecondition("no tour image to extract");
-  SCENELOC_ASSIGN_OR_RETURN(const TargetFn target, TourTargets(image_paths[0], options));
-  size_t mixed = 0;
-  const size_t batch = kBatchImages * static_cast<size_t>(std::max(1, threads));
-  for (size_t begin = 0; begin < image_paths.size(); begin += batch) {
-    const size_t end = std::min(image_paths.size(), begin + batch);
-    const std::vector<std::string> paths(image_paths.begin() + static_cast<std::ptrdiff_t>(begin),
-                                         image_paths.begin() + static_cast<std::ptrdiff_t>(end));
-    size_t batch_mixed = 0;
-    const auto batch_progress = [&](const std::string& stage, size_t done, size_t) {
-      Report(progress, stage.c_str(), begin + done, image_paths.size());
-    };
-    SCENELOC_ASSIGN_OR_RETURN(
-        const std::vector<FeatureSet> features,
-        ExtractImages(paths, options, target, threads, batch_progress, &batch_mixed));
-    for (const FeatureSet& f : features) SCENELOC_RETURN_IF_ERROR(spool->Append(f));
-    mixed += batch_mixed;
-  }
-  if (mixed_sizes != nullptr) *mixed_sizes = mixed;
+  SCENELOC_ASSIGN_OR_RETURN(const TourFrame first, FirstFrame(image_paths[0], options));
+  std::atomic<size_t> mixed{0};
+  SCENELOC_RETURN_IF_ERROR(
+      ExtractToSpool(image_paths, options, TourTargets(first, &mixed), threads, progress, spool));
+  if (mixed_sizes != nullptr) *mixed_sizes = mixed.load();
   return Status::Ok();
 }
 

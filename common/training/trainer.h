@@ -82,6 +82,11 @@ StatusOr<std::vector<FeatureSet>> ExtractFolder(const std::vector<std::string>& 
                                                 const ProgressFn& progress,
                                                 size_t* mixed_sizes = nullptr);
 
+// ExtractImages into `spool`, in order, holding only a few images' features at a time.
+Status ExtractToSpool(const std::vector<std::string>& image_paths, const ExtractorOptions& options,
+                      const TargetFn& target, int threads, const ProgressFn& progress,
+                      FeatureSpool* spool);
+
 // ExtractFolder into `spool`, in order, holding only a few images' features at a time.
 Status ExtractToSpool(const std::vector<std::string>& image_paths, const ExtractorOptions& options,
                       int threads, const ProgressFn& progress, FeatureSpool* spool,

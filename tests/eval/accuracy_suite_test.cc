@@ -16,8 +16,10 @@
 
 #include "common/config/config.h"
 #include "common/synthetic/tour_generator.h"
+#include "common/util/image_folder.h"
 #include "tests/support/scratch_dir.h"
 #include "tests/support/tour_features.h"
+#include "tools/eval/distractor_suite.h"
 
 namespace sceneloc {
 namespace {
@@ -342,6 +344,58 @@ TEST_F(SuiteRunTest, RunSetAnswersEveryQueryWithEveryMethod) {
   EXPECT_EQ(result->session.confidence.threshold, settings.match.sequence.min_confidence);
   EXPECT_EQ(result->negatives, 3u);
   EXPECT_LE(result->negatives_accepted, result->negatives);
+}
+
+// The set's queries against its tour padded to the map size: first the set's frames from
+// elsewhere, then the generated distractors; the paper and the baselines do not run; the
+// off-route frames are the negatives. The padded map is kept in the cache and read back
+// (same answers, no training) while its images are the same.
+TEST_F(SuiteRunTest, DistractorsPadTheMapAndItIsKept) {
+  ASSERT_TRUE(WriteTour(test::SmallTour(3, 9), dir_.File("elsewhere"), kTrainingPass).ok());
+  ASSERT_TRUE(WriteTour(test::SmallTour(6, 21), dir_.File("distractors"), kTrainingPass).ok());
+  ASSERT_TRUE(WriteTour(test::SmallTour(2, 33), dir_.File("offroute"), kTestPass).ok());
+  set_.negative_dirs = {dir_.File("elsewhere")};
+  SuiteSettings settings;
+  settings.train.extractor = extractor_;
+  DistractorOptions distractors;
+  distractors.generated = *ListImageFiles(dir_.File("distractors"));
+  distractors.locations = kLocations + 3 + 4;
+  distractors.offroute_dir = dir_.File("offroute");
+
+  const auto result = RunSetWithDistractors(set_, settings, context_, distractors);
+  ASSERT_TRUE(result.ok()) << result.status().ToString();
+  EXPECT_EQ(result->locations, distractors.locations);
+  EXPECT_FALSE(result->comparisons);
+  EXPECT_GT(result->train_seconds, 0);
+  ASSERT_EQ(result->outcomes.size(), static_cast<size_t>(kLocations));
+  EXPECT_EQ(result->session_outcomes.size(), static_cast<size_t>(kLocations));
+  EXPECT_TRUE(result->paper_outcomes.empty());
+  EXPECT_FALSE(result->summary.has_baseline);
+  EXPECT_GT(result->summary.ours.match_rate[1], 0.5);
+  EXPECT_EQ(result->negatives, 2u);
+
+  const auto again = RunSetWithDistractors(set_, settings, context_, distractors);
+  ASSERT_TRUE(again.ok()) << again.status().ToString();
+  EXPECT_EQ(again->train_seconds, 0);
+  for (int q = 0; q < kLocations; ++q) {
+    EXPECT_EQ(again->outcomes[q].ours.predicted, result->outcomes[q].ours.predicted);
+  }
+
+  // Another size is another map; more than the distractors can pad, or less than the
+  // tour, is an error that says so.
+  distractors.locations = kLocations + 3 + 6;
+  const auto bigger = RunSetWithDistractors(set_, settings, context_, distractors);
+  ASSERT_TRUE(bigger.ok()) << bigger.status().ToString();
+  EXPECT_EQ(bigger->locations, distractors.locations);
+  EXPECT_GT(bigger->train_seconds, 0);
+  distractors.locations = kLocations + 3 + 7;
+  const auto short_of = RunSetWithDistractors(set_, settings, context_, distractors);
+  EXPECT_EQ(short_of.status().code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(short_of.status().message().find("holds 6"), std::string::npos)
+      << short_of.status().message();
+  distractors.locations = kLocations - 1;
+  EXPECT_EQ(RunSetWithDistractors(set_, settings, context_, distractors).status().code(),
+            StatusCode::kInvalidArgument);
 }
 
 }  // namespace

@@ -387,7 +387,14 @@ StatusOr<SetResult> RunSet(const SuiteSet& set, const SuiteSettings& settings,
   result.summary = Summarise(result.outcomes, /*with_baseline=*/true,
                              {settings.train.tolerance, settings.match.min_confidence});
   result.paper = paper.summary;
-  const SequenceRun run = RunSequence(result.outcomes, ours.map, settings.match,
+  SummariseSessions(ours.map, settings, &result);
+  return result;
+}
+
+void SummariseSessions(const Map& map, const SuiteSettings& settings, SetResult* out) {
+  SetResult& result = *out;
+  const Map& ours_map = map;
+  const SequenceRun run = RunSequence(result.outcomes, ours_map, settings.match,
                                       KidnapOrder(result.outcomes.size(), 1, 0));
   for (const QueryOutcome& o : run.filtered) result.session_outcomes.push_back(o.ours);
   for (const QueryOutcome& o : run.in_session) result.in_session_outcomes.push_back(o.ours);
@@ -397,11 +404,10 @@ StatusOr<SetResult> RunSet(const SuiteSet& set, const SuiteSettings& settings,
       SummariseMethod(run.filtered, Method::kOurs,
                       {settings.train.tolerance, settings.match.sequence.min_confidence});
   for (const Walk& walk : StandardWalks(result.outcomes.size())) {
-    result.walks.push_back(SummariseWalk(walk, result.outcomes, ours.map, settings.match));
+    result.walks.push_back(SummariseWalk(walk, result.outcomes, ours_map, settings.match));
   }
-  result.kidnap = SummariseKidnaps(result.outcomes, ours.map, settings.match,
+  result.kidnap = SummariseKidnaps(result.outcomes, ours_map, settings.match,
                                    SetResult::kKidnapSegments, SetResult::kKidnapSeeds);
-  return result;
 }
 
 std::vector<AblationVariant> AblationVariants() {

@@ -88,6 +88,8 @@ struct SetResult {
   size_t negatives = 0;
   size_t negatives_accepted = 0;
   float negatives_max_confidence = 0;
+  // Whether the paper's map and the baselines ran (not with distractors: distractor_suite.h).
+  bool comparisons = true;
 };
 
 struct SuiteContext {
@@ -100,6 +102,10 @@ struct SuiteContext {
 // all four methods. Errors: unreadable folders or images, a tour that cannot be trained.
 StatusOr<SetResult> RunSet(const SuiteSet& set, const SuiteSettings& settings,
                            const SuiteContext& context);
+
+// Fills the session figures of `result` (session, in_session, walks, kidnap) from its
+// single-frame outcomes against `map`, as RunSet does.
+void SummariseSessions(const Map& map, const SuiteSettings& settings, SetResult* result);
 
 // Every single-frame query of `results` (of the sets whose query frames are used as they are,
 // when `unchanged_only`) in one summary of ours and both baselines, each query judged against
@@ -139,5 +145,10 @@ struct AblationVariant {
   std::string match_yaml;
 };
 std::vector<AblationVariant> AblationVariants();
+
+// Localises every frame of set.negative_dirs against `map` (in the frame of `data`'s tour):
+// fills result->negatives, negatives_accepted and negatives_max_confidence.
+Status RunNegatives(const SuiteSet& set, const Map& map, const MatchOptions& match,
+                    const SetData& data, const SuiteContext& context, SetResult* result);
 
 }  // namespace sceneloc
