@@ -55,6 +55,33 @@ TEST_F(ImageFolderTest, UnusableFoldersEachHaveTheirError) {
   EXPECT_NE(empty.status().message().find((dir_ / "empty").string()), std::string::npos);
 }
 
+// Numbered frames are listed in the order they were taken, padded or not: a generated tour
+// of more than 1,000 locations (Image999.jpg, Image1000.jpg) or a camera's frame9, frame10.
+TEST_F(ImageFolderTest, NumberedFramesComeInTheirOrder) {
+  for (const char* name : {"Image1000.jpg", "Image999.jpg", "Image100.jpg", "Image10000.jpg"}) {
+    Touch(name);
+  }
+  const StatusOr<std::vector<std::string>> files = ListImageFiles(dir_.string());
+  ASSERT_TRUE(files.ok()) << files.status().ToString();
+  std::vector<std::string> names;
+  for (const std::string& f : *files) names.push_back(FileName(f));
+  EXPECT_EQ(names, (std::vector<std::string>{"Image100.jpg", "Image999.jpg", "Image1000.jpg",
+                                             "Image10000.jpg"}));
+}
+
+TEST(NaturalLessTest, NumbersCompareByValueAndTheRestByByte) {
+  EXPECT_TRUE(NaturalLess("frame9.jpg", "frame10.jpg"));
+  EXPECT_FALSE(NaturalLess("frame10.jpg", "frame9.jpg"));
+  EXPECT_TRUE(NaturalLess("a2b3", "a2b10"));
+  EXPECT_TRUE(NaturalLess("a.jpg", "b.jpg"));
+  EXPECT_TRUE(NaturalLess("x", "x1"));  // a prefix first
+  EXPECT_FALSE(NaturalLess("x1", "x"));
+  EXPECT_TRUE(NaturalLess("Image099.jpg", "Image100.jpg"));
+  // Equal numbers written differently: one fixed order, never both ways.
+  EXPECT_NE(NaturalLess("f007", "f7"), NaturalLess("f7", "f007"));
+  EXPECT_FALSE(NaturalLess("same", "same"));
+}
+
 // FileName keeps the last path component only.
 TEST(FileNameTest, KeepsTheLastComponent) {
   EXPECT_EQ(FileName("/a/b/Image042.jpg"), "Image042.jpg");
