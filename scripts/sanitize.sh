@@ -11,8 +11,8 @@
 # Under the sanitizers our Eigen and SIFT-heavy code runs 10-20x slower (measured: the
 # end-to-end train-and-localise test 192 s against 10 s), so the whole-pipeline tests are
 # left to the plain suite: the real-data evaluation, the end-to-end and frame-size tests,
-# the generated tour's SIFT checks and the CLI's train-then-eval. Every unit, server and
-# client test runs here. SCENELOC_SANITIZE_ALL=1 runs everything (about 40 minutes).
+# the generated tour's SIFT checks, the CLI's train-then-eval and the 2,000-location scale
+# slice. Every unit, server and client test runs here. SCENELOC_SANITIZE_ALL=1 runs everything (about 40 minutes).
 #
 # Portable code (-DSCENELOC_AVX2=OFF, as the Docker image builds): the hot loops have an
 # AVX2 path and a plain one (e.g. S_D's bound, common/matching/descriptor_similarity.cc);
@@ -40,6 +40,6 @@ export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 cd build-asan
 exclude=()
 if [[ "${SCENELOC_SANITIZE_ALL:-0}" != 1 ]]; then
-  exclude=(-E 'RealDataTest|EndToEndTest|FramesTest|TrainFramesMap|TourGeneratorSiftTest|CliTest.TrainThenEval')
+  exclude=(-E 'RealDataTest|EndToEndTest|FramesTest|TrainFramesMap|TourGeneratorSiftTest|CliTest.TrainThenEval|ScaleSliceTest')
 fi
 ctest --output-on-failure -j"$(nproc)" "${exclude[@]}" "$@"
