@@ -19,6 +19,7 @@
 
 #include "common/config/config.h"
 #include "common/util/image_folder.h"
+#include "common/util/progress_printer.h"
 #include "common/util/timer.h"
 #include "tools/eval/accuracy_suite.h"
 #include "tools/eval/distractor_suite.h"
@@ -439,9 +440,11 @@ int RunSuite(const Args& a, const sl::SuiteSettings& settings,
   PrintHeader();
   for (const sl::SuiteSet& set : sets) {
     std::fprintf(stderr, "sceneloc-accuracy: %s ...\n", set.name.c_str());
+    sl::DistractorOptions distractors = a.distractors;
+    distractors.progress = sl::ProgressPrinter("  " + set.name + ": padded map");
     auto result = a.distractors_dir.empty()
                       ? sl::RunSet(set, settings, a.context)
-                      : sl::RunSetWithDistractors(set, settings, a.context, a.distractors);
+                      : sl::RunSetWithDistractors(set, settings, a.context, distractors);
     if (!result.ok()) return Fail(set.name + ": " + result.status().message());
     PrintSet(*result);
     json["sets"].push_back(SetJson(*result));

@@ -3,8 +3,6 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
-#include <chrono>
-#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -13,59 +11,10 @@
 #include "common/config/config.h"
 #include "common/map/map_io.h"
 #include "common/training/trainer.h"
+#include "common/util/progress_printer.h"
 #include "common/util/timer.h"
 
 namespace {
-
-// One progress line per stage with an estimate of the stage's time left, rewritten in place
-// on a terminal (at most ten times a second), else printed every ten seconds and at the end.
-class ProgressPrinter {
- public:
-  void operator()(const std::string& stage, size_t done, size_t total) {
-    using Clock = std::chrono::steady_clock;
-    const Clock::time_point now = Clock::now();
-    if (stage != stage_) {
-      stage_ = stage;
-      start_ = now;
-      last_ = now;  // the first line after the first interval: a quick stage prints once
-    }
-    const bool tty = isatty(fileno(stderr));
-    const bool finished = done >= total;
-    if (!finished &&
-        now - last_ < (tty ? std::chrono::milliseconds(100) : std::chrono::seconds(10))) {
-      return;
-    }
-    last_ = now;
-    const double elapsed = std::chrono::duration<double>(now - start_).count();
-    char left[64] = "";
-    if (finished) {
-      std::snprintf(left, sizeof(left), "  in %s", Duration(elapsed).c_str());
-    } else if (done > 0 && elapsed > 1) {
-      const double remaining =
-          elapsed * static_cast<double>(total - done) / static_cast<double>(done);
-      std::snprintf(left, sizeof(left), "  %s left", Duration(remaining).c_str());
-    }
-    std::fprintf(stderr, "%s  %-10s %zu/%zu%s%s", tty ? "\r\033[K" : "", stage.c_str(), done, total,
-                 left, !tty || finished ? "\n" : "");
-  }
-
- private:
-  static std::string Duration(double seconds) {
-    char text[32];
-    const long s = std::lround(seconds);
-    if (s < 60) {
-      std::snprintf(text, sizeof(text), "%.1f s", seconds);
-    } else if (s < 3600) {
-      std::snprintf(text, sizeof(text), "%ldm%02lds", s / 60, s % 60);
-    } else {
-      std::snprintf(text, sizeof(text), "%ldh%02ldm", s / 3600, s / 60 % 60);
-    }
-    return text;
-  }
-
-  std::string stage_;
-  std::chrono::steady_clock::time_point start_, last_;
-};
 
 void PrintSummary(const sceneloc::TrainSummary& s, const std::string& out, double seconds,
                   size_t bytes) {
@@ -173,7 +122,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   sceneloc::Stopwatch watch;
-  ProgressPrinter progress;
+  sceneloc::ProgressPrinter progress;
   if (spool_dir.empty()) {
     spool_dir = std::filesystem::path(out_path).parent_path().string();
     if (spool_dir.empty()) spool_dir = ".";

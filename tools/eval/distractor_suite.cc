@@ -90,7 +90,8 @@ std::string ReadText(const fs::path& path) {
 // Trains the padded map: the set's tour from memory, the padding extracted (into the tour's
 // frame, as queries would be) to a spool in the cache folder.
 StatusOr<Map> TrainPadded(const SetData& data, const std::vector<std::string>& padding,
-                          const TrainOptions& train, const SuiteContext& context) {
+                          const TrainOptions& train, const SuiteContext& context,
+                          const ProgressFn& progress) {
   SCENELOC_ASSIGN_OR_RETURN(const auto spool, FeatureSpool::Create(context.cache_dir));
   const ExtractionTarget frame{data.tour.front().image_width, data.tour.front().image_height,
                                data.tour.front().holistic_grid};
@@ -98,7 +99,7 @@ StatusOr<Map> TrainPadded(const SetData& data, const std::vector<std::string>& p
     return QueryTarget(width, height, frame.width, frame.holistic);
   };
   SCENELOC_RETURN_IF_ERROR(
-      ExtractToSpool(padding, train.extractor, target, context.threads, nullptr, spool.get()));
+      ExtractToSpool(padding, train.extractor, target, context.threads, progress, spool.get()));
   std::vector<std::string> names = data.tour_names;
   for (size_t i = 0; i < padding.size(); ++i) {
     names.push_back("padding/" + std::to_string(i) + "/" + FileName(padding[i]));
@@ -128,7 +129,7 @@ StatusOr<Map> PaddedMap(const SuiteSet& set, const SetData& data, const TrainOpt
   fs::create_directories(dir, ec);
   if (ec) return IoError("cannot create '" + dir.string() + "': " + ec.message());
   Stopwatch watch;
-  SCENELOC_ASSIGN_OR_RETURN(Map map, TrainPadded(data, padding, train, context));
+  SCENELOC_ASSIGN_OR_RETURN(Map map, TrainPadded(data, padding, train, context, options.progress));
   *train_seconds = watch.Seconds();
   SCENELOC_RETURN_IF_ERROR(SaveMap(map, map_path.string()));
   std::ofstream(key_path, std::ios::binary | std::ios::trunc) << key;

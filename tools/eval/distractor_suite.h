@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "common/training/trainer.h"
 #include "tools/eval/accuracy_suite.h"
 
 namespace sceneloc {
@@ -25,6 +26,7 @@ struct DistractorOptions {
   std::vector<std::string> generated;  // distractor images, in the order they pad the map
   int locations = 20000;               // every map's size (at least its set's tour)
   std::string offroute_dir;            // frames of no map ("" = none)
+  ProgressFn progress;                 // training a padded map (may be empty)
 };
 
 // Trains (or reads from the cache) the padded map of `set`'s tour and runs its queries
