@@ -15,12 +15,15 @@
 # the default sizes, of which 15 rendering the distractors once (kept in OUT for later runs).
 # Usage: scripts/bench_scale.sh [OUT_DIR] [DATA_DIR] [SIZES] [SECONDS_PER_BENCH]
 #   SIZES: locations, e.g. "200 2000 20000" (the default); each at least 200.
+#   SCENELOC_SCALE_KEEP_MAPS=1 keeps the maps (and training figures) an earlier run left in
+#   OUT and measures the rest afresh: the serving figures of every size in one quiet run.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 out="$(mkdir -p "${1:-$root/scale-out}" && cd "${1:-$root/scale-out}" && pwd)"
 data="$(cd "${2:-$root/../shared/data}" && pwd)"
 read -r -a sizes <<<"${3:-200 2000 20000}"
 seconds="${4:-20}"
+keep_maps="${SCENELOC_SCALE_KEEP_MAPS:-0}"
 build="$root/build"
 client="$build/client/sceneloc"
 threads=2
@@ -36,7 +39,7 @@ for n in "${sizes[@]}"; do
   ((n > largest)) && largest=$n
 done
 corridor=()
-[[ -d "$data/corridor/ref" ]] && mapfile -t corridor < <(ls "$data/corridor/ref"/*.jpg | sort)
+[[ -d "$data/corridor/ref" ]] && mapfile -t corridor < <(ls "$data/corridor/ref"/*.jpg | sort -V)
 
 # The distractors, rendered once for the largest size; and the off-route frames.
 wanted=$((largest - 200 - ${#corridor[@]}))
@@ -50,7 +53,7 @@ if [[ ! -d "$out/offroute/test" ]]; then
   "$build/tools/sceneloc-gentour" --out "$out/offroute" --locations 100 --width 960 --height 540 \
     --seed 29 --passes test | tail -n 1
 fi
-mapfile -t synthetic < <(ls "$out/distractors/tour" 2>/dev/null | sort)
+mapfile -t synthetic < <(ls "$out/distractors/tour" 2>/dev/null | sort -V)
 
 # make_tour N: OUT/tours/N, real first (file order is tour order), look-alikes, distractors.
 make_tour() {
@@ -74,10 +77,14 @@ for n in "${sizes[@]}"; do
   echo "== $n locations"
   result="$out/size-$n"
   mkdir -p "$result" "$out/maps-$n"
-  make_tour "$n"
   map="$out/maps-$n/scale.scnl"
-  /usr/bin/time -v "$build/tools/sceneloc-train" --tour "$out/tours/$n" --out "$map" \
-    --threads "$threads" >"$result/train.txt" 2>"$result/train.err"
+  if [[ $keep_maps == 1 && -s $map && -s $result/train.txt && -s $result/train.err ]]; then
+    echo "  the map and training figures of an earlier run (SCENELOC_SCALE_KEEP_MAPS=1)"
+  else
+    make_tour "$n"
+    /usr/bin/time -v "$build/tools/sceneloc-train" --tour "$out/tours/$n" --out "$map" \
+      --threads "$threads" >"$result/train.txt" 2>"$result/train.err"
+  fi
   tail -n 3 "$result/train.txt"
 
   # The server's maps folder holds this size's map alone (a hard link: no copy).

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """The table, JSON and plot of scripts/bench_scale.sh from its OUT folder: every figure per
-map size, its slope against the size (log-log, between the two largest sizes: 1 = linear) and
+map size, the largest size's over the smallest's, its slope against the size (log-log, between the two largest sizes: 1 = linear) and
 its projection to 100,000 locations along that slope.
 Usage: scale_report.py OUT SIZE [SIZE ...]"""
 import json
@@ -79,9 +79,10 @@ def slope(rows, key):
 
 def main(out, sizes):
     rows = [size_row(out, n) for n in sizes]
+    first, last = rows[0]["locations"], rows[-1]["locations"]
     lines = ["| figure | " + " | ".join(f"{r['locations']:,}" for r in rows) +
-             " | slope | at 100,000 |", "|---" * (len(rows) + 3) + "|"]
-    report = {"sizes": rows, "slopes": {}, "at_100000": {}}
+             f" | {last:,} / {first:,} | slope | at 100,000 |", "|---" * (len(rows) + 4) + "|"]
+    report = {"sizes": rows, "ratios": {}, "slopes": {}, "at_100000": {}}
     for key, label, fmt in COLUMNS:
         cells = [fmt.format(r[key]) for r in rows]
         s = slope(rows, key) if len(rows) > 1 else None
@@ -89,9 +90,12 @@ def main(out, sizes):
         if s is not None and key not in ("match_2", "localised_precision", "offroute_localised",
                                          "reload_peak_over_one_map"):
             projected = rows[-1][key] * (100000 / rows[-1]["locations"]) ** s
+        ratio = rows[-1][key] / rows[0][key] if rows[0][key] > 0 else None
+        report["ratios"][key] = ratio
         report["slopes"][key] = s
         report["at_100000"][key] = projected
         lines.append(f"| {label} | " + " | ".join(cells) +
+                     f" | {'' if ratio is None else f'{ratio:.2f}'}"
                      f" | {'' if s is None else f'{s:.2f}'} | "
                      f"{'' if projected is None else fmt.format(projected)} |")
     table = "\n".join(lines)
