@@ -105,7 +105,7 @@ StatusOr<Map> TrainPadded(const SetData& data, const std::vector<std::string>& p
     names.push_back("padding/" + std::to_string(i) + "/" + FileName(padding[i]));
   }
   SCENELOC_ASSIGN_OR_RETURN(TrainResult trained, TrainFromTour(ConcatTour(data.tour, *spool), names,
-                                                               train, context.threads, nullptr));
+                                                               train, context.threads, progress));
   return std::move(trained.map);
 }
 
