@@ -60,10 +60,11 @@ bool LoadAll(sceneloc::MapRegistry* registry, const std::string& dir) {
                  ignored.size() == 1 ? "y" : "ies", names);
   }
   for (const auto& map : registry->List()) {
-    spdlog::info("map {} generation {} checksum {:08x}: {} locations, {} landmarks, {:.1f} MB in "
-                 "memory ({})",
-                 map->name, map->generation, map->checksum, map->map.num_images(),
-                 map->map.num_landmarks(), map->map.MemoryBytes() / 1e6, map->path);
+    spdlog::info(
+        "map {} generation {} checksum {:08x}: {} locations, {} landmarks, {:.1f} MB in "
+        "memory ({})",
+        map->name, map->generation, map->checksum, map->map.num_images(), map->map.num_landmarks(),
+        map->map.MemoryBytes() / 1e6, map->path);
   }
   spdlog::info("{} map(s) loaded from {} after {:.0f} ms", registry->List().size(), dir, ms);
   return true;
