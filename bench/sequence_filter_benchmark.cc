@@ -67,7 +67,13 @@ void RunFilterUpdate(benchmark::State& state, const SequenceOptions& options) {
       SerializeSessionToken(session, {"key", "robot", 0, n, filter.num_speeds()}).size());
 }
 void BM_FilterUpdate(benchmark::State& state) { RunFilterUpdate(state, SequenceOptions{}); }
-BENCHMARK(BM_FilterUpdate)->Arg(200)->Arg(1000)->Arg(3000)->Arg(10000)->Complexity(benchmark::oN);
+BENCHMARK(BM_FilterUpdate)
+    ->Arg(200)
+    ->Arg(1000)
+    ->Arg(3000)
+    ->Arg(10000)
+    ->Arg(20000)
+    ->Complexity(benchmark::oN);
 
 // The same without the check of the track (sequence.support_weight 0: the probability is the
 // belief alone): the difference is what SequenceFilter::CheckTrack costs.

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <numeric>
 
 #include "common/matching/confidence.h"
@@ -22,24 +23,42 @@ double StationaryOffMap(const SequenceOptions& o) {
   return o.leave + o.enter > 0 ? o.leave / (o.leave + o.enter) : 0;
 }
 
-// An update's working memory, kept by each thread from one update to the next. At 10,000
-// locations and 17 speeds the full belief and the prediction's two copies are 680 KB each:
-// allocated afresh every frame, glibc hands them back to the kernel and faults them in
-// again, which cost two thirds of a frame's 6 ms on the 2-core VM (docs/results.md,
-// "Sessions: a lock per session"). Reused, a frame costs 2.1 ms and the answers are the same.
+// An update's working memory, kept by each thread from one update to the next: allocated
+// afresh every frame, glibc hands large arrays back to the kernel and faults them in again,
+// which once cost two thirds of a frame (docs/results.md, "Sessions: a lock per session").
 struct Workspace {
-  std::vector<float> belief;  // the full belief for this frame (Expand)
+  // Predict: the belief each location holds after the move, over every speed; the belief of
+  // the locations that share their speeds (0 for those that move one by one); the shared
+  // speeds after their change; the kernel of their steps, one value per whole step from
+  // SequenceFilter::min_step_.
+  std::vector<double> moved;
+  std::vector<double> shared_loc;
+  std::vector<double> shared_speeds;
+  std::vector<double> kernel;
+  // Predict: where the locations that move one by one land, per speed (num_speeds() values
+  // a slot): slot_of[l] is location l's slot, -1 for none (always -1 between updates).
+  std::vector<int32_t> slot_of;
+  std::vector<uint32_t> slot_location;
+  std::vector<double> slots;
+  // Predict: the share of every (location, speed) that moves, and the belief every
+  // (location, speed) holds whatever the move (the kidnap floor and the way back onto the
+  // route); off-map after the prediction. fresh: every speed of every location alike.
+  double moving = 1;
+  double floor_each = 0;
+  double off_map = 0;
+  bool fresh = false;
   std::vector<float> scores;  // the frame's evidence read with the session's camera
-  std::vector<float> sped;    // Predict: after the change of speed
-  std::vector<float> moved;   // Predict: after the step
-  std::vector<float> total;   // Predict: each location over every speed (speed_jump)
   std::vector<double> log_lik;
+  // EvidenceWeights: each location's weight, then off-map's.
+  std::vector<double> weight;
   // Observe: the frame's single-frame posterior over the locations, exp((s_l - top) / T)
   // over posterior_total (empty: the frame has no evidence), which CheckTrack reads after it.
   std::vector<double> posterior;
   double posterior_total = 0;
-  std::vector<double> lik;  // Spread
-  std::vector<double> at;   // Compact: every speed together
+  std::vector<double> weighed;      // Observe: the frame's weights off the tracked locations
+  std::vector<double> change;       // ChangeSpeed's per-source speeds
+  std::vector<double> correlation;  // Observe: the shared locations' weighted moves
+  std::vector<double> ranked;       // Observe: the belief, partly sorted
   std::vector<uint32_t> order;
   std::vector<char> is_tracked;
 };
@@ -49,13 +68,16 @@ Workspace& ThreadWorkspace() {
   return workspace;
 }
 
-void Normalise(std::vector<float>* v) {
-  const double total = std::accumulate(v->begin(), v->end(), 0.0);
-  if (!(total > 0) || !std::isfinite(total)) {  // cannot happen with finite evidence
-    std::fill(v->begin(), v->end(), 1.0f / static_cast<float>(v->size()));
-    return;
+// sum a[i] b[i] over n values, in four partial sums: one running sum is a chain of
+// dependent additions the compiler may not reorder.
+double Dot(const double* a, const double* b, int n) {
+  double s[4] = {0, 0, 0, 0};
+  int i = 0;
+  for (; i + 4 <= n; i += 4) {
+    for (int k = 0; k < 4; ++k) s[k] += a[i + k] * b[i + k];
   }
-  for (float& x : *v) x = static_cast<float>(x / total);
+  for (; i < n; ++i) s[0] += a[i] * b[i];
+  return (s[0] + s[1]) + (s[2] + s[3]);
 }
 
 }  // namespace
@@ -112,9 +134,12 @@ SequenceFilter::SequenceFilter(const Map& map, const SequenceOptions& options)
       if (share == 0) continue;
       for (int j = -1; j <= 1; ++j) {
         steps_[v].push_back({whole + j, static_cast<float>(share * kJitter[j + 1])});
+        min_step_ = std::min(min_step_, whole + j);
+        max_step_ = std::max(max_step_, whole + j);
       }
     }
   }
+  reach_ = std::max(-min_step_, max_step_);
 }
 
 int SequenceFilter::ReflectAtEnds(int target, int n, bool* turned) {
@@ -128,90 +153,139 @@ int SequenceFilter::ReflectAtEnds(int target, int n, bool* turned) {
   return target;
 }
 
-void SequenceFilter::Predict(std::vector<float>* belief) const {
-  const int n = num_locations_;
+void SequenceFilter::ChangeSpeed(const float* row, double* out) const {
   const int speeds = num_speeds();
-  std::vector<float>& b = *belief;
-  const size_t in_size = static_cast<size_t>(speeds) * n;
-  const double in_mass = std::accumulate(b.begin(), b.begin() + in_size, 0.0);
-  const double off = b[in_size];
-  // The speed first: kept with probability 1 - speed_change, else half a location per frame
-  // faster or slower (at the fastest or the slowest, the one way there is).
   const double change = options_.speed_change;
-  std::vector<float>& sped = ThreadWorkspace().sped;
-  sped.assign(in_size, 0.0f);
+  std::fill(out, out + speeds, 0.0);
+  double total = 0;
+  // Kept with probability 1 - speed_change, else half a location per frame faster or
+  // slower (at the fastest or the slowest, the one way there is).
   for (int v = 0; v < speeds; ++v) {
     const bool slower = v > 0, faster = v + 1 < speeds;
     const double each = (slower && faster) ? change / 2 : change;
-    const float* from = b.data() + static_cast<size_t>(v) * n;
-    float* stay = sped.data() + static_cast<size_t>(v) * n;
-    float* down = slower ? sped.data() + static_cast<size_t>(v - 1) * n : nullptr;
-    float* up = faster ? sped.data() + static_cast<size_t>(v + 1) * n : nullptr;
-    const double keep = (slower || faster) ? 1 - change : 1;
-    for (int l = 0; l < n; ++l) {
-      stay[l] += static_cast<float>(keep * from[l]);
-      if (down != nullptr) down[l] += static_cast<float>(each * from[l]);
-      if (up != nullptr) up[l] += static_cast<float>(each * from[l]);
-    }
+    out[v] += ((slower || faster) ? 1 - change : 1) * row[v];
+    if (slower) out[v - 1] += each * row[v];
+    if (faster) out[v + 1] += each * row[v];
+    total += row[v];
   }
-  // And with probability speed_jump the speed is drawn afresh: each location's mass over
-  // every speed, shared equally among them.
+  // And with probability speed_jump drawn afresh: the location's mass over every speed,
+  // shared equally among them.
   if (const double redraw = options_.speed_jump; redraw > 0) {
-    std::vector<float>& total = ThreadWorkspace().total;
-    total.assign(static_cast<size_t>(n), 0.0f);
-    for (int v = 0; v < speeds; ++v) {
-      const float* from = b.data() + static_cast<size_t>(v) * n;
-      for (int l = 0; l < n; ++l) total[l] += from[l];
-    }
-    const auto keep = static_cast<float>(1 - redraw), each = static_cast<float>(redraw / speeds);
-    for (int v = 0; v < speeds; ++v) {
-      float* to = sped.data() + static_cast<size_t>(v) * n;
-      for (int l = 0; l < n; ++l) to[l] = keep * to[l] + each * total[l];
-    }
+    for (int v = 0; v < speeds; ++v) out[v] = (1 - redraw) * out[v] + redraw / speeds * total;
   }
-  // Then the step (steps_: the speed's locations, give or take one). A step
-  // past either end of the route turns the robot round there: it walks back the rest of
-  // the step at the opposite speed (ReflectAtEnds; kept at the end instead, every step past
-  // it would pile up on the end location).
-  std::vector<float>& moved = ThreadWorkspace().moved;
-  moved.assign(in_size, 0.0f);
-  const int slowest = kSpeedsPerLocation * backward_, fastest = kSpeedsPerLocation * forward_;
-  for (int v = 0; v < speeds; ++v) {
-    const int opposite = std::clamp(slowest - v, -slowest, fastest) + slowest;
-    const float* from = sped.data() + static_cast<size_t>(v) * n;
-    float* to = moved.data() + static_cast<size_t>(v) * n;
-    for (const Step& step : steps_[v]) {
-      // Sources whose step stays on the route: one contiguous, vectorisable run.
-      const int first = std::clamp(-step.locations, 0, n),
-                last = std::clamp(n - step.locations, 0, n);
-      for (int l = first; l < last; ++l) to[l + step.locations] += step.weight * from[l];
-      // The rest step past an end and turn round there.
-      const auto turn_round = [&](int l) {
-        bool turned = false;
-        const int at = ReflectAtEnds(l + step.locations, n, &turned);
-        moved[static_cast<size_t>(turned ? opposite : v) * n + at] += step.weight * from[l];
-      };
-      for (int l = 0; l < first; ++l) turn_round(l);
-      for (int l = std::max(last, first); l < n; ++l) turn_round(l);
-    }
-  }
-  // The kidnap floor and the way back onto the route: any location, any speed.
-  const double jump_each = options_.jump * in_mass / static_cast<double>(in_size);
-  const double enter_each = options_.enter * off / static_cast<double>(in_size);
-  for (size_t i = 0; i < in_size; ++i) {
-    b[i] = static_cast<float>((1 - options_.leave) * ((1 - options_.jump) * moved[i] + jump_each) +
-                              enter_each);
-  }
-  b[in_size] = static_cast<float>(options_.leave * in_mass + (1 - options_.enter) * off);
 }
 
-void SequenceFilter::Spread(std::vector<double>* log_lik) const {
+void SequenceFilter::Predict(const SequenceState& state) const {
+  Workspace& work = ThreadWorkspace();
+  const int n = num_locations_, speeds = num_speeds();
+  const double in_mass = std::accumulate(state.location.begin(), state.location.begin() + n, 0.0);
+  const double off = state.location[n];
+  // Of the belief on the route, 1 - leave stays on it and jump of that is carried anywhere
+  // (the kidnap floor); enter of off-map comes back anywhere: any location, any speed.
+  const double cells = static_cast<double>(speeds) * n;
+  work.fresh = false;
+  work.moving = (1 - options_.leave) * (1 - options_.jump);
+  work.floor_each =
+      (1 - options_.leave) * options_.jump * in_mass / cells + options_.enter * off / cells;
+  work.off_map = options_.leave * in_mass + (1 - options_.enter) * off;
+
+  // The locations that share their speeds: the shared speeds' change, and the kernel of
+  // their steps (steps_: the speed's locations, give or take one).
+  const float* shared_row = state.speeds.data() + state.tracked.size() * speeds;
+  work.shared_speeds.resize(static_cast<size_t>(speeds));
+  ChangeSpeed(shared_row, work.shared_speeds.data());
+  work.kernel.assign(static_cast<size_t>(max_step_ - min_step_ + 1), 0.0);
+  for (int v = 0; v < speeds; ++v) {
+    for (const Step& step : steps_[v]) {
+      work.kernel[step.locations - min_step_] += work.shared_speeds[v] * step.weight;
+    }
+  }
+  work.shared_loc.assign(state.location.begin(), state.location.begin() + n);
+
+  // The others one by one, each with its own speeds (or the shared ones): the tracked
+  // locations, and those within a step of an end, where a step past the end turns the
+  // robot round: it walks back the rest of the step at the opposite speed (ReflectAtEnds;
+  // kept at the end instead, every step past it would pile up on the end location).
+  if (work.slot_of.size() < static_cast<size_t>(n)) work.slot_of.resize(n, -1);
+  work.slot_location.clear();
+  work.slots.clear();
+  work.change.resize(static_cast<size_t>(speeds));
+  const auto slot = [&work, speeds](int at) {
+    int32_t& s = work.slot_of[at];
+    if (s < 0) {
+      s = static_cast<int32_t>(work.slot_location.size());
+      work.slot_location.push_back(static_cast<uint32_t>(at));
+      work.slots.resize(work.slots.size() + speeds, 0.0);
+    }
+    return work.slots.data() + static_cast<size_t>(s) * speeds;
+  };
+  const int slowest = kSpeedsPerLocation * backward_, fastest = kSpeedsPerLocation * forward_;
+  const auto move_alone = [&](int l, const float* row) {
+    work.shared_loc[l] = 0;
+    ChangeSpeed(row, work.change.data());
+    for (int v = 0; v < speeds; ++v) {
+      const int opposite = std::clamp(slowest - v, -slowest, fastest) + slowest;
+      const double sped = state.location[l] * work.change[v];
+      for (const Step& step : steps_[v]) {
+        bool turned = false;
+        const int at = ReflectAtEnds(l + step.locations, n, &turned);
+        slot(at)[turned ? opposite : v] += step.weight * sped;
+      }
+    }
+  };
+  const int low_end = std::min(reach_, n), high_end = std::max(low_end, n - reach_);
+  size_t next = 0;  // the first tracked location not below the one asked for
+  const auto row_of = [&](int l) {
+    while (next < state.tracked.size() && state.tracked[next] < static_cast<uint32_t>(l)) ++next;
+    return next < state.tracked.size() && state.tracked[next] == static_cast<uint32_t>(l)
+               ? state.speeds.data() + next * speeds
+               : shared_row;
+  };
+  for (int l = 0; l < low_end; ++l) move_alone(l, row_of(l));
+  for (; next < state.tracked.size() && state.tracked[next] < static_cast<uint32_t>(high_end);
+       ++next) {
+    const auto l = static_cast<int>(state.tracked[next]);
+    if (l >= low_end) move_alone(l, state.speeds.data() + next * speeds);
+  }
+  for (int l = high_end; l < n; ++l) move_alone(l, row_of(l));
+
+  // Each location's belief over every speed after the move: the shared locations' steps
+  // (none of which leaves the route), then the others'.
+  std::vector<double>& moved = work.moved;
+  moved.assign(static_cast<size_t>(n), 0.0);
+  for (int d = min_step_; d <= max_step_; ++d) {
+    const double k = work.kernel[d - min_step_];
+    if (k == 0) continue;
+    const int first = std::max(0, -d), last = std::min(n, n - d);
+    const double* from = work.shared_loc.data();
+    double* to = moved.data();
+    for (int l = first; l < last; ++l) to[l + d] += k * from[l];
+  }
+  for (size_t i = 0; i < work.slot_location.size(); ++i) {
+    const double* s = work.slots.data() + i * speeds;
+    moved[work.slot_location[i]] += std::accumulate(s, s + speeds, 0.0);
+  }
+  for (double& m : moved) m = work.moving * m + speeds * work.floor_each;
+}
+
+void SequenceFilter::PredictFresh() const {
+  Workspace& work = ThreadWorkspace();
+  const int n = num_locations_;
+  const double off = StationaryOffMap(options_);
+  work.fresh = true;
+  work.moved.assign(static_cast<size_t>(n), (1 - off) / n);
+  work.off_map = off;
+  work.slot_location.clear();
+  work.slots.clear();
+}
+
+void SequenceFilter::Spread(const std::vector<double>& posterior,
+                            std::vector<double>* log_lik) const {
   const int n = num_locations_;
   std::vector<double>& ll = *log_lik;
   const double top = *std::max_element(ll.begin(), ll.begin() + n);
-  std::vector<double>& lik = ThreadWorkspace().lik;
-  lik.resize(static_cast<size_t>(n));
-  for (int l = 0; l < n; ++l) lik[l] = std::exp(ll[l] - top);  // <= 1, the best 1
+  // The likelihood over its best, exp(ll - top): the posterior, whose best is 1 too.
+  const std::vector<double>& lik = posterior;
   const int radius = static_cast<int>(spread_.size()) - 1;
   for (int l = 0; l < n; ++l) {
     double sum = lik[l];
@@ -223,31 +297,35 @@ void SequenceFilter::Spread(std::vector<double>* log_lik) const {
   }
 }
 
-void SequenceFilter::Observe(const std::vector<float>& s, double in_map,
-                             std::vector<float>* belief) const {
+void SequenceFilter::EvidenceWeights(const std::vector<float>& s, double in_map) const {
+  Workspace& work = ThreadWorkspace();
   const int n = num_locations_;
   const bool has_scores =
       s.size() == static_cast<size_t>(n) &&
       *std::max_element(s.begin(), s.end()) != *std::min_element(s.begin(), s.end());
-  std::vector<double>& posterior = ThreadWorkspace().posterior;
+  std::vector<double>& posterior = work.posterior;
   posterior.clear();
-  if (!has_scores && in_map < 0) return;  // nothing observed: prediction only
+  std::vector<double>& weight = work.weight;
+  if (!has_scores && in_map < 0) {  // nothing observed: prediction only
+    weight.assign(static_cast<size_t>(n) + 1, 1.0);
+    return;
+  }
   const double p_in = in_map < 0 ? 0.5 : std::clamp(in_map, 1e-4, 1 - 1e-4);
   const double gamma = options_.evidence_weight;
   // log P(frame | l) up to a constant shared by every state: the single-frame posterior
   // over a uniform prior (even odds of in-map, 1/N per location) is a likelihood ratio.
   // The frame says nothing about the robot's speed: every speed gets the same.
-  std::vector<double>& log_lik = ThreadWorkspace().log_lik;
+  std::vector<double>& log_lik = work.log_lik;
   log_lik.assign(static_cast<size_t>(n) + 1, std::log(p_in));
   if (has_scores) {
     const float top = *std::max_element(s.begin(), s.end());
     posterior.resize(static_cast<size_t>(n));
     double z = 0;
     for (int l = 0; l < n; ++l) z += posterior[l] = std::exp((s[l] - top) / temperature_);
-    ThreadWorkspace().posterior_total = z;
+    work.posterior_total = z;
     const double offset = std::log(p_in) + std::log(static_cast<double>(n)) - std::log(z);
     for (int l = 0; l < n; ++l) log_lik[l] = (s[l] - top) / temperature_ + offset;
-    if (!spread_.empty()) Spread(&log_lik);
+    if (!spread_.empty()) Spread(posterior, &log_lik);
     const double floor = options_.evidence_floor;
     if (floor > 0) {  // log((1 - floor) L + floor p_in), without overflow: log-sum-exp
       const double a = std::log(1 - floor), b = std::log(floor * p_in);
@@ -259,14 +337,124 @@ void SequenceFilter::Observe(const std::vector<float>& s, double in_map,
   }
   log_lik[n] = std::log(1 - p_in);
   const double top = *std::max_element(log_lik.begin(), log_lik.end());
-  std::vector<float>& b = *belief;
-  const int speeds = num_speeds();
-  for (int l = 0; l < n; ++l) {
-    const auto w = static_cast<float>(std::exp(gamma * (log_lik[l] - top)));
-    for (int v = 0; v < speeds; ++v) b[static_cast<size_t>(v) * n + l] *= w;
+  weight.resize(static_cast<size_t>(n) + 1);
+  for (int l = 0; l <= n; ++l) weight[l] = std::exp(gamma * (log_lik[l] - top));
+}
+
+void SequenceFilter::Observe(const std::vector<float>& scores, double in_map,
+                             SequenceState* state) const {
+  EvidenceWeights(scores, in_map);
+  Workspace& work = ThreadWorkspace();
+  const int n = num_locations_, speeds = num_speeds();
+  const std::vector<double>& weight = work.weight;
+  // Every location's belief over every speed, weighed by the frame, normalised.
+  std::vector<double>& at = work.moved;
+  double off = weight[n] * work.off_map;
+  double total = off;
+  for (int l = 0; l < n; ++l) total += at[l] *= weight[l];
+  if (!(total > 0) || !std::isfinite(total)) {  // cannot happen with finite evidence
+    at.assign(static_cast<size_t>(n), 1.0);
+    off = 1.0 / speeds;
+    total = n + off;
+    work.fresh = true;
   }
-  b[static_cast<size_t>(speeds) * n] *= static_cast<float>(std::exp(gamma * (log_lik[n] - top)));
-  Normalise(belief);
+  state->location.resize(static_cast<size_t>(n) + 1);
+  for (int l = 0; l < n; ++l) state->location[l] = static_cast<float>(at[l] / total);
+  state->location[n] = static_cast<float>(off / total);
+
+  // The most probable locations keep their speeds; ties go to the lower location, so
+  // every process compacts a belief the same way.
+  std::vector<uint32_t>& order = work.order;
+  order.clear();
+  if (tracked_ < n) {
+    // The tracked_-th most probable belief, then every location above it and, in location
+    // order, as many as are needed of those at it.
+    std::vector<double>& ranked = work.ranked;
+    ranked.assign(at.begin(), at.end());
+    std::nth_element(ranked.begin(), ranked.begin() + (tracked_ - 1), ranked.end(),
+                     std::greater<>());
+    const double least = ranked[tracked_ - 1];
+    int above = 0;
+    for (int l = 0; l < n; ++l) above += at[l] > least ? 1 : 0;
+    int at_least = tracked_ - above;
+    for (int l = 0; l < n; ++l) {
+      if (at[l] > least || (at[l] == least && at_least-- > 0))
+        order.push_back(static_cast<uint32_t>(l));
+    }
+  } else {
+    order.resize(static_cast<size_t>(n));
+    std::iota(order.begin(), order.end(), 0u);
+  }
+  state->tracked.assign(order.begin(), order.end());
+  state->speeds.assign((state->tracked.size() + 1) * speeds, 0.0f);
+  // A row of speeds normalised; uniform where it holds none.
+  const auto normalise_row = [speeds](const double* values, float* row) {
+    const double sum = std::accumulate(values, values + speeds, 0.0);
+    for (int v = 0; v < speeds; ++v) {
+      row[v] = sum > 0 ? static_cast<float>(values[v] / sum) : 1.0f / static_cast<float>(speeds);
+    }
+  };
+  std::vector<double>& values = work.change;
+  values.resize(static_cast<size_t>(speeds));
+  std::vector<char>& is_tracked = work.is_tracked;
+  is_tracked.assign(static_cast<size_t>(n), 0);
+  const std::vector<double>& shared_loc = work.shared_loc;
+  for (size_t i = 0; i < state->tracked.size(); ++i) {
+    const uint32_t l = state->tracked[i];
+    is_tracked[l] = 1;
+    if (work.fresh) {
+      std::fill(values.begin(), values.end(), 1.0);
+    } else {
+      // The location's speeds as the move left them (the frame weighs them all alike).
+      const int32_t s = work.slot_of[l];
+      for (int v = 0; v < speeds; ++v) {
+        double m = 0;
+        for (const Step& step : steps_[v]) {
+          const int from = static_cast<int>(l) - step.locations;
+          if (from >= 0 && from < n) m += step.weight * shared_loc[from];
+        }
+        m *= work.shared_speeds[v];
+        if (s >= 0) m += work.slots[static_cast<size_t>(s) * speeds + v];
+        values[v] = work.moving * m + work.floor_each;
+      }
+    }
+    normalise_row(values.data(), state->speeds.data() + i * speeds);
+  }
+  // The others share the speeds of their mass together: the shared locations' moves onto
+  // them (a correlation of their belief with the frame's weights there), the others'
+  // moves, and the floor.
+  float* shared = state->speeds.data() + state->tracked.size() * speeds;
+  if (work.fresh) {
+    std::fill(values.begin(), values.end(), 1.0);
+  } else {
+    std::vector<double>& weighed = work.weighed;
+    weighed.resize(static_cast<size_t>(n));
+    double weighed_total = 0;
+    for (int l = 0; l < n; ++l) weighed_total += weighed[l] = is_tracked[l] ? 0.0 : weight[l];
+    std::vector<double>& correlation = work.correlation;
+    correlation.assign(work.kernel.size(), 0.0);
+    for (int d = min_step_; d <= max_step_; ++d) {
+      if (work.kernel[d - min_step_] == 0) continue;
+      const int first = std::max(0, -d), last = std::min(n, n - d);
+      correlation[d - min_step_] =
+          Dot(weighed.data() + first + d, shared_loc.data() + first, std::max(0, last - first));
+    }
+    for (int v = 0; v < speeds; ++v) {
+      double m = 0;
+      for (const Step& step : steps_[v]) m += step.weight * correlation[step.locations - min_step_];
+      values[v] = work.shared_speeds[v] * m;
+    }
+    for (size_t i = 0; i < work.slot_location.size(); ++i) {
+      const double w = weighed[work.slot_location[i]];
+      const double* s = work.slots.data() + i * speeds;
+      for (int v = 0; v < speeds; ++v) values[v] += w * s[v];
+    }
+    for (int v = 0; v < speeds; ++v) {
+      values[v] = work.moving * values[v] + work.floor_each * weighed_total;
+    }
+  }
+  normalise_row(values.data(), shared);
+  for (uint32_t l : work.slot_location) work.slot_of[l] = -1;
 }
 
 bool SequenceFilter::Fits(const SequenceState& state) const {
@@ -282,75 +470,6 @@ bool SequenceFilter::Fits(const SequenceState& state) const {
     if (state.tracked[i] >= n || (i > 0 && state.tracked[i] <= state.tracked[i - 1])) return false;
   }
   return true;
-}
-
-void SequenceFilter::Expand(const SequenceState& state, std::vector<float>* belief) const {
-  const int n = num_locations_, speeds = num_speeds();
-  belief->resize(static_cast<size_t>(speeds) * n + 1);
-  const float* shared = state.speeds.data() + state.tracked.size() * speeds;
-  size_t next = 0;  // the next tracked location's index in state.tracked
-  for (int l = 0; l < n; ++l) {
-    const bool tracked =
-        next < state.tracked.size() && state.tracked[next] == static_cast<uint32_t>(l);
-    const float* row = tracked ? state.speeds.data() + (next++) * speeds : shared;
-    for (int v = 0; v < speeds; ++v)
-      (*belief)[static_cast<size_t>(v) * n + l] = state.location[l] * row[v];
-  }
-  belief->back() = state.location[n];
-}
-
-void SequenceFilter::Compact(const std::vector<float>& belief, SequenceState* state) const {
-  const int n = num_locations_, speeds = num_speeds();
-  std::vector<double>& at = ThreadWorkspace().at;  // every speed together
-  at.assign(static_cast<size_t>(n), 0.0);
-  for (int v = 0; v < speeds; ++v) {
-    for (int l = 0; l < n; ++l) at[l] += belief[static_cast<size_t>(v) * n + l];
-  }
-  state->location.resize(static_cast<size_t>(n) + 1);
-  for (int l = 0; l < n; ++l) state->location[l] = static_cast<float>(at[l]);
-  state->location[n] = belief.back();
-  // The most probable locations keep their speeds; ties go to the lower location, so
-  // every process compacts a belief the same way.
-  std::vector<uint32_t>& order = ThreadWorkspace().order;
-  order.resize(static_cast<size_t>(n));
-  std::iota(order.begin(), order.end(), 0u);
-  const auto more_probable = [&at](uint32_t a, uint32_t b) {
-    return at[a] > at[b] || (at[a] == at[b] && a < b);
-  };
-  if (tracked_ < n) {
-    std::nth_element(order.begin(), order.begin() + tracked_, order.end(), more_probable);
-    order.resize(static_cast<size_t>(tracked_));
-    std::sort(order.begin(), order.end());
-  }
-  state->tracked.assign(order.begin(), order.end());  // not order's capacity of n
-  state->speeds.assign((state->tracked.size() + 1) * speeds, 0.0f);
-  // A row of speeds from a location's column of the belief; uniform where it holds none.
-  const auto normalise_row = [speeds](float* row, double total) {
-    for (int v = 0; v < speeds; ++v) {
-      row[v] = total > 0 ? static_cast<float>(row[v] / total) : 1.0f / static_cast<float>(speeds);
-    }
-  };
-  std::vector<char>& is_tracked = ThreadWorkspace().is_tracked;
-  is_tracked.assign(static_cast<size_t>(n), 0);
-  for (size_t i = 0; i < state->tracked.size(); ++i) {
-    const uint32_t l = state->tracked[i];
-    is_tracked[l] = 1;
-    float* row = state->speeds.data() + i * speeds;
-    for (int v = 0; v < speeds; ++v) row[v] = belief[static_cast<size_t>(v) * n + l];
-    normalise_row(row, at[l]);
-  }
-  // The others share the speeds of their mass together.
-  float* shared = state->speeds.data() + state->tracked.size() * speeds;
-  double rest = 0;
-  for (int v = 0; v < speeds; ++v) {
-    double sum = 0;
-    for (int l = 0; l < n; ++l) {
-      if (is_tracked[l] == 0) sum += belief[static_cast<size_t>(v) * n + l];
-    }
-    shared[v] = static_cast<float>(sum);
-    rest += sum;
-  }
-  normalise_row(shared, rest);
 }
 
 SequenceAnswer SequenceFilter::Answer(const SequenceState& state) const {
@@ -493,18 +612,13 @@ void SequenceFilter::MeasureCamera(const FrameEvidence& evidence, const Sequence
 
 SequenceAnswer SequenceFilter::Update(const FrameEvidence& evidence, SequenceState* state) const {
   Workspace& work = ThreadWorkspace();
-  std::vector<float>& belief = work.belief;
   if (!Fits(*state)) {
-    const double off = StationaryOffMap(options_);
-    const size_t size = static_cast<size_t>(num_speeds()) * num_locations_ + 1;
-    belief.assign(size, static_cast<float>((1 - off) / static_cast<double>(size - 1)));
-    belief.back() = static_cast<float>(off);
+    PredictFresh();
     state->frames = 0;
     state->camera_counts.clear();
     state->support = SequenceState::kFreshSupport;
   } else {
-    Expand(*state, &belief);
-    Predict(&belief);
+    Predict(*state);
   }
   // The frame's evidence read with the session's camera (or the one its client states):
   // only the verified candidates' scores depend on it.
@@ -518,8 +632,7 @@ SequenceAnswer SequenceFilter::Update(const FrameEvidence& evidence, SequenceSta
     ScoreCandidates(evidence.candidates, fusion, &work.scores);
     scores = &work.scores;
   }
-  Observe(*scores, evidence.in_map, &belief);
-  Compact(belief, state);
+  Observe(*scores, evidence.in_map, state);
   if (state->frames < UINT32_MAX) ++state->frames;  // a carried count can be anything
   SequenceAnswer answer = Answer(*state);
   CheckTrack(evidence.in_map, &answer, state);

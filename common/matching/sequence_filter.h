@@ -47,8 +47,15 @@
 // most probable K (tracked_locations, 64): a location's belief is the product of where
 // the robot is and how fast it goes, and away from the few places it might be, the speeds
 // hardly differ (measured lossless from K = 16 on the dev sets).
-// Cost: O(S N) per frame, N + 1 + K + (K + 1) S values per session, S = 2 (max_forward +
-// max_backward) + 1 speeds (17 with the map's default band of 2).
+// A step never forms the full belief over (location, speed): the untracked locations share
+// one distribution over speeds, so their move is a correlation of their belief with one
+// kernel over the steps' span; only the tracked locations and those within a step of an
+// end (where steps turn round) move speed by speed. The same answers as the full belief's
+// (tests/matching/sequence_filter_test.cc, SparseStepsAreTheDenseModels).
+// Cost: O(N W + K S) per frame, W = max_forward + max_backward + 3 the steps' span;
+// N + 1 + K + (K + 1) S values per session, S = 2 (max_forward + max_backward) + 1 speeds
+// (17 with the map's default band of 2). 0.9 ms a frame at 20,000 locations and 25 speeds
+// on the 2-core VM (bench/sequence_filter_benchmark.cc; 5.4 ms with the full belief).
 //
 // Thread-compatible: a SequenceState belongs to one session; the functions are pure.
 #pragma once
@@ -143,8 +150,8 @@ class SequenceFilter {
   // Adds one frame to `state` (a fresh state starts from a uniform belief) and answers.
   // A state that does not Fit (another map, other settings) is restarted, never read.
   // Any number of threads may update their own states at once; each thread keeps the
-  // working memory of its largest update (three S N floats and a few N-sized arrays: 2.2 MB
-  // at 10,000 locations and 17 speeds) for the next.
+  // working memory of its largest update (about ten N-sized arrays of doubles: 0.8 MB at
+  // 10,000 locations) for the next.
   SequenceAnswer Update(const FrameEvidence& evidence, SequenceState* state) const;
 
   // The camera's log scale a session with `state` reads its next frame with: the median of
@@ -184,15 +191,26 @@ class SequenceFilter {
   int max_backward() const { return backward_; }
 
  private:
-  // The full belief, S N + 1 values (N locations at the slowest speed, then N at each
-  // faster one, then off-map), from a state that Fits, and back. Compact keeps the
-  // num_tracked() most probable locations' speeds (ties: the lower location).
-  void Expand(const SequenceState& state, std::vector<float>* belief) const;
-  void Compact(const std::vector<float>& belief, SequenceState* state) const;
-  void Predict(std::vector<float>* belief) const;
-  // Weighs `belief` by a frame's evidence: every location's fused score, and P(in the map)
-  // (-1 unknown). Leaves the frame's posterior in the thread's workspace for CheckTrack.
-  void Observe(const std::vector<float>& scores, double in_map, std::vector<float>* belief) const;
+  // One frame's prediction from a state that Fits, kept sparse (the thread's workspace):
+  // the locations whose speeds the state keeps, and those within a step of either end of
+  // the route (where steps turn round), move one by one; the others share one speed
+  // distribution, so their move is one correlation of their belief with a kernel of the
+  // shared speeds' steps (O(N x the steps' span)). What the state cannot keep (the full
+  // belief over location and speed) is never formed.
+  void Predict(const SequenceState& state) const;
+  // The same for a fresh session: every location and speed equally likely.
+  void PredictFresh() const;
+  // The predicted belief weighed by a frame's evidence (every location's fused score, and
+  // P(in the map), -1 unknown), normalised, into `state`: its locations' belief, the
+  // num_tracked() most probable locations (ties: the lower location) with their speeds,
+  // and the others' shared speeds. Leaves the frame's posterior in the thread's workspace
+  // for CheckTrack.
+  void Observe(const std::vector<float>& scores, double in_map, SequenceState* state) const;
+  // Per location, the weight of the frame's evidence (the thread's workspace), off-map last.
+  void EvidenceWeights(const std::vector<float>& scores, double in_map) const;
+  // A location's speeds after the speed changes (SequenceOptions::speed_change, speed_jump),
+  // from its speeds `row` (num_speeds() values).
+  void ChangeSpeed(const float* row, double* out) const;
   // Weighs the session's support (SequenceState::support) by how far the frame's posterior
   // (as the Observe just before read it) places the robot within a frame's travel of
   // `answer`, and sets answer->probability and decision.
@@ -201,8 +219,9 @@ class SequenceFilter {
   void MeasureCamera(const FrameEvidence& evidence, const SequenceAnswer& answer,
                      SequenceState* state) const;
   // Adds to each location's likelihood its neighbours' within the band, weighted by
-  // spread_ (log_lik holds N locations, then off-map, which is left alone).
-  void Spread(std::vector<double>* log_lik) const;
+  // spread_ (log_lik holds N locations, then off-map, which is left alone). `posterior`:
+  // exp(log_lik - its largest) over the N locations.
+  void Spread(const std::vector<double>& posterior, std::vector<double>* log_lik) const;
   SequenceAnswer Answer(const SequenceState& state) const;
 
   // Constant after construction.
@@ -221,6 +240,11 @@ class SequenceFilter {
     float weight;
   };
   std::vector<std::vector<Step>> steps_;
+  // The least and greatest whole step of any speed, and the locations within a step of
+  // either end: min_step_ <= Step::locations <= max_step_, reach_ = max(|min|, |max|).
+  int min_step_ = 0;
+  int max_step_ = 0;
+  int reach_ = 0;
 };
 
 }  // namespace sceneloc

@@ -698,6 +698,149 @@ TEST_F(SequenceFilterTest, FewTrackedLocationsAnswerAsAll) {
   EXPECT_LE(wrong, 12);  // the first frames and each change of place
 }
 
+// The filter's model written out densely: the full belief over (location, speed) built from
+// a state, one frame's prediction and evidence applied cell by cell, and the state kept
+// again. The filter never forms the full belief (sequence_filter.h); its steps must equal
+// this one's. Evidence without spread or floor (Spread is shared by both).
+SequenceState DenseStep(const SequenceState& state, const FrameEvidence& e,
+                        const SequenceOptions& o, int forward, int backward, int tracked) {
+  const int n = static_cast<int>(state.location.size()) - 1;
+  const int speeds = 2 * (forward + backward) + 1;
+  std::vector<double> b(static_cast<size_t>(speeds) * n + 1);
+  const auto cell = [n](int v, int l) { return static_cast<size_t>(v) * n + l; };
+  for (int l = 0; l < n; ++l) {
+    const auto it = std::lower_bound(state.tracked.begin(), state.tracked.end(), l);
+    const size_t row = it != state.tracked.end() && *it == static_cast<uint32_t>(l)
+                           ? static_cast<size_t>(it - state.tracked.begin())
+                           : state.tracked.size();
+    for (int v = 0; v < speeds; ++v)
+      b[cell(v, l)] = state.location[l] * state.speeds[row * speeds + v];
+  }
+  b.back() = state.location[n];
+  const double in_mass = std::accumulate(b.begin(), b.end() - 1, 0.0), off = b.back();
+  // The speed changes: half a location slower or faster, or drawn afresh.
+  std::vector<double> sped(b.size() - 1, 0.0);
+  for (int l = 0; l < n; ++l) {
+    double total = 0;
+    for (int v = 0; v < speeds; ++v) total += b[cell(v, l)];
+    for (int v = 0; v < speeds; ++v) {
+      const int ways = (v > 0 ? 1 : 0) + (v + 1 < speeds ? 1 : 0);
+      sped[cell(v, l)] += (1 - o.speed_change) * b[cell(v, l)];
+      if (v > 0) sped[cell(v - 1, l)] += o.speed_change / ways * b[cell(v, l)];
+      if (v + 1 < speeds) sped[cell(v + 1, l)] += o.speed_change / ways * b[cell(v, l)];
+    }
+    for (int v = 0; v < speeds; ++v) {
+      sped[cell(v, l)] = (1 - o.speed_jump) * sped[cell(v, l)] + o.speed_jump / speeds * total;
+    }
+  }
+  // The step: half-location speeds split between the whole steps around them, each give or
+  // take one; past an end the robot turns round at the opposite speed.
+  std::vector<double> moved(sped.size(), 0.0);
+  for (int v = 0; v < speeds; ++v) {
+    const int halves = v - 2 * backward;
+    const int low = static_cast<int>(std::floor(halves / 2.0));
+    for (int l = 0; l < n; ++l) {
+      for (const int whole : {low, low + 1}) {
+        const double share = halves % 2 != 0 ? 0.5 : (whole == low ? 1.0 : 0.0);
+        for (int j = -1; j <= 1; ++j) {
+          bool turned = false;
+          const int at = SequenceFilter::ReflectAtEnds(l + whole + j, n, &turned);
+          const int to_speed =
+              turned ? std::clamp(-halves, -2 * backward, 2 * forward) + 2 * backward : v;
+          moved[cell(to_speed, l) - l + at] += share * (j == 0 ? 4.0 : 1.0) / 6 * sped[cell(v, l)];
+        }
+      }
+    }
+  }
+  const double cells = static_cast<double>(speeds) * n;
+  for (size_t i = 0; i + 1 < b.size(); ++i) {
+    b[i] = (1 - o.leave) * ((1 - o.jump) * moved[i] + o.jump * in_mass / cells) +
+           o.enter * off / cells;
+  }
+  b.back() = o.leave * in_mass + (1 - o.enter) * off;
+  // The frame: its posterior over a uniform prior, tempered.
+  const std::vector<float>& s = e.location_scores;
+  const float top = *std::max_element(s.begin(), s.end());
+  double z = 0;
+  for (int l = 0; l < n; ++l) z += std::exp((s[l] - top) / o.evidence_temperature);
+  for (int l = 0; l < n; ++l) {
+    const double lik = std::exp((s[l] - top) / o.evidence_temperature) * e.in_map * n / z;
+    for (int v = 0; v < speeds; ++v) b[cell(v, l)] *= std::pow(lik, o.evidence_weight);
+  }
+  b.back() *= std::pow(1 - e.in_map, o.evidence_weight);
+  const double total = std::accumulate(b.begin(), b.end(), 0.0);
+  for (double& x : b) x /= total;
+  // Kept: every location's belief, the most probable locations' speeds, the others' shared.
+  SequenceState out;
+  std::vector<double> at(static_cast<size_t>(n), 0.0);
+  for (int l = 0; l < n; ++l) {
+    for (int v = 0; v < speeds; ++v) at[l] += b[cell(v, l)];
+    out.location.push_back(static_cast<float>(at[l]));
+  }
+  out.location.push_back(static_cast<float>(b.back()));
+  std::vector<uint32_t> order(static_cast<size_t>(n));
+  std::iota(order.begin(), order.end(), 0u);
+  std::stable_sort(order.begin(), order.end(),
+                   [&at](uint32_t a, uint32_t c) { return at[a] > at[c]; });
+  order.resize(static_cast<size_t>(std::min(tracked, n)));
+  std::sort(order.begin(), order.end());
+  out.tracked = order;
+  std::vector<double> rest(static_cast<size_t>(speeds), 0.0);
+  for (int l = 0; l < n; ++l) {
+    if (std::binary_search(order.begin(), order.end(), static_cast<uint32_t>(l))) continue;
+    for (int v = 0; v < speeds; ++v) rest[v] += b[cell(v, l)];
+  }
+  const double rest_total = std::accumulate(rest.begin(), rest.end(), 0.0);
+  for (const uint32_t l : order) {
+    for (int v = 0; v < speeds; ++v)
+      out.speeds.push_back(static_cast<float>(b[cell(v, l)] / at[l]));
+  }
+  for (int v = 0; v < speeds; ++v) {
+    out.speeds.push_back(rest_total > 0 ? static_cast<float>(rest[v] / rest_total) : 1.0f / speeds);
+  }
+  return out;
+}
+
+// The filter's sparse step is the dense model's: on a route longer than the tracked
+// locations and the steps, on one where every location is tracked, and on one shorter than
+// a step (where every step may turn round), through a walk, a kidnap and off-route frames.
+TEST_F(SequenceFilterTest, SparseStepsAreTheDenseModels) {
+  options_.evidence_spread = 0;
+  options_.support_weight = 0;
+  options_.learn_camera_scale = false;
+  options_.tracked_locations = 16;
+  for (const int n : {kLocations, 40, 12, 3}) {
+    SCOPED_TRACE(n);
+    Map map = map_;
+    map.image_names.resize(static_cast<size_t>(n));
+    const SequenceFilter filter(map, options_);
+    SequenceState state;
+    for (int t = 0; t < 60; ++t) {
+      const int where = t < 30 ? (2 * t) % n : t < 40 ? (n / 2 + t) % n : (7 * t) % n;
+      FrameEvidence e = t % 11 == 10 ? Elsewhere() : Frame(where, 4);
+      e.location_scores.resize(static_cast<size_t>(n));
+      e.location_scores[0] += 0.01f;  // never flat
+      if (t == 0) {
+        filter.Update(e, &state);
+        continue;
+      }
+      const SequenceState dense = DenseStep(state, e, options_, filter.max_forward(),
+                                            filter.max_backward(), filter.num_tracked());
+      filter.Update(e, &state);
+      ASSERT_EQ(state.location.size(), dense.location.size());
+      for (size_t l = 0; l < dense.location.size(); ++l) {
+        ASSERT_NEAR(state.location[l], dense.location[l], 1e-6 + 1e-4 * dense.location[l])
+            << "frame " << t << " location " << l;
+      }
+      ASSERT_EQ(state.tracked, dense.tracked) << "frame " << t;
+      ASSERT_EQ(state.speeds.size(), dense.speeds.size());
+      for (size_t i = 0; i < dense.speeds.size(); ++i) {
+        ASSERT_NEAR(state.speeds[i], dense.speeds[i], 1e-5) << "frame " << t << " value " << i;
+      }
+    }
+  }
+}
+
 // The belief stays a distribution however long the session runs.
 TEST_F(SequenceFilterTest, BeliefStaysNormalised) {
   const SequenceFilter filter = Filter();
