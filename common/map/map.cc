@@ -94,10 +94,10 @@ Status CheckVector(const char* name, const std::vector<float>& v, Range range) {
   return CheckValues(name, v.data(), v.size(), 1, range);
 }
 
-// CheckValues of binary16 values.
-Status CheckHalves(const char* name, const HistogramHalves& m, Range range) {
+// CheckValues of context spread codes.
+Status CheckSpreadCodes(const char* name, const HistogramCodes& m, Range range) {
   std::vector<float> values(static_cast<size_t>(m.size()));
-  for (size_t i = 0; i < values.size(); ++i) values[i] = HalfValue(m.data()[i]);
+  for (size_t i = 0; i < values.size(); ++i) values[i] = ContextSpreadCode().Decode(m.data()[i]);
   return CheckValues(name, values.data(), values.size(), kNumHistograms, range);
 }
 
@@ -198,8 +198,6 @@ Status ValidateLandmarkCounts(const Map& map) {
   SCENELOC_RETURN_IF_ERROR(CheckCount("context_mean", map.context_mean.rows(), l, kWhat));
   SCENELOC_RETURN_IF_ERROR(CheckCount("context_dmax", map.context_dmax.rows(), l, kWhat));
   SCENELOC_RETURN_IF_ERROR(CheckCount("context_var", map.context_var.rows(), l, kWhat));
-  SCENELOC_RETURN_IF_ERROR(CheckCount("mean_x", map.mean_x.size(), l, kWhat));
-  SCENELOC_RETURN_IF_ERROR(CheckCount("mean_y", map.mean_y.size(), l, kWhat));
   return CheckCount("quality", map.quality.size(), l, kWhat);
 }
 
@@ -208,16 +206,7 @@ Status ValidateObservations(const Map& map) {
   const size_t n = map.observation_image.size();
   SCENELOC_RETURN_IF_ERROR(CheckCsr("observation_offsets", map.observation_offsets, l, "landmarks",
                                     "observation_image", n));
-  SCENELOC_RETURN_IF_ERROR(
-      CheckCount("observation_x", map.observation_x.size(), n, "observations"));
-  SCENELOC_RETURN_IF_ERROR(
-      CheckCount("observation_y", map.observation_y.size(), n, "observations"));
-  SCENELOC_RETURN_IF_ERROR(
-      CheckCount("observation_size", map.observation_size.size(), n, "observations"));
-  if (!map.observation_angle.empty()) {
-    SCENELOC_RETURN_IF_ERROR(
-        CheckCount("observation_angle", map.observation_angle.size(), n, "observations"));
-  }
+  SCENELOC_RETURN_IF_ERROR(CheckCount("observations", map.observations.size(), n, "observations"));
   return CheckIndices(
       map.observation_offsets, [&](uint32_t j) { return map.observation_image[j]; },
       map.image_names.size(), "observation", "landmark", "image", "images");
@@ -244,15 +233,18 @@ Status ValidateLandmarkValues(const Map& map) {
   // The mean descriptors are bytes: any value is a valid one.
   SCENELOC_RETURN_IF_ERROR(CheckVector("local_dmax", map.local_dmax, Range::kNonNegative));
   SCENELOC_RETURN_IF_ERROR(CheckVector("local_var", map.local_var, Range::kPositive));
-  SCENELOC_RETURN_IF_ERROR(CheckHalves("context_dmax", map.context_dmax, Range::kNonNegative));
-  SCENELOC_RETURN_IF_ERROR(CheckHalves("context_var", map.context_var, Range::kPositive));
-  SCENELOC_RETURN_IF_ERROR(CheckVector("mean_x", map.mean_x, Range::kAny));
-  SCENELOC_RETURN_IF_ERROR(CheckVector("mean_y", map.mean_y, Range::kAny));
+  SCENELOC_RETURN_IF_ERROR(CheckSpreadCodes("context_dmax", map.context_dmax, Range::kNonNegative));
+  SCENELOC_RETURN_IF_ERROR(CheckSpreadCodes("context_var", map.context_var, Range::kPositive));
   SCENELOC_RETURN_IF_ERROR(CheckVector("quality", map.quality, Range::kAny));
-  SCENELOC_RETURN_IF_ERROR(CheckVector("observation_x", map.observation_x, Range::kAny));
-  SCENELOC_RETURN_IF_ERROR(CheckVector("observation_y", map.observation_y, Range::kAny));
-  SCENELOC_RETURN_IF_ERROR(CheckVector("observation_angle", map.observation_angle, Range::kAny));
-  return CheckVector("observation_size", map.observation_size, Range::kPositive);
+  // Positions and orientations are fixed point: any value is a valid one.
+  for (size_t o = 0; o < map.observations.size(); ++o) {
+    const float size = map.ObservationSize(o);
+    if (!InRange(size, Range::kPositive)) {
+      return DataLoss("observation_size[" + std::to_string(o) + "] is " + FormatFloat(size) +
+                      ", must be " + Describe(Range::kPositive));
+    }
+  }
+  return Status::Ok();
 }
 
 // The neighbour fields checked by value; `landmark` is checked as an index.
@@ -397,6 +389,17 @@ void ProjectBlock(const DescriptorMatrix& means,
   }
 }
 
+std::array<float, 2> Map::MeanPosition(int g) const {
+  const uint32_t begin = observation_offsets[g], end = observation_offsets[g + 1];
+  double x = 0, y = 0;
+  for (uint32_t o = begin; o < end; ++o) {
+    x += ObservationX(o);
+    y += ObservationY(o);
+  }
+  const double n = std::max<uint32_t>(1, end - begin);
+  return {static_cast<float>(x / n), static_cast<float>(y / n)};
+}
+
 size_t Map::MemoryBytes() const {
   size_t bytes = sizeof(Map) + provenance.tour_dir.capacity() + provenance.created_utc.capacity() +
                  provenance.tool_version.capacity();
@@ -404,11 +407,9 @@ size_t Map::MemoryBytes() const {
   for (const std::string& name : image_names) bytes += name.capacity();
   bytes += MatrixBytes(local_mean) + MatrixBytes(context_mean) + MatrixBytes(context_dmax) +
            MatrixBytes(context_var);
-  bytes += VectorBytes(local_dmax) + VectorBytes(local_var) + VectorBytes(mean_x) +
-           VectorBytes(mean_y) + VectorBytes(quality);
-  bytes += VectorBytes(observation_offsets) + VectorBytes(observation_image) +
-           VectorBytes(observation_x) + VectorBytes(observation_y) + VectorBytes(observation_size) +
-           VectorBytes(observation_angle);
+  bytes += VectorBytes(local_dmax) + VectorBytes(local_var) + VectorBytes(quality);
+  bytes +=
+      VectorBytes(observation_offsets) + VectorBytes(observation_image) + VectorBytes(observations);
   bytes += VectorBytes(neighbour_offsets) + VectorBytes(neighbours);
   bytes += VectorBytes(image_offsets) + VectorBytes(image_landmarks);
   bytes += MatrixBytes(local_projected) + VectorBytes(local_projected_sqnorm) +

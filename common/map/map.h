@@ -10,6 +10,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -24,8 +25,8 @@ namespace sceneloc {
 
 // Descriptors as bytes (UnitByte, compact.h), one row per landmark.
 using DescriptorBytes = Eigen::Matrix<uint8_t, Eigen::Dynamic, kDescriptorSize, Eigen::RowMajor>;
-// Per-histogram spreads as binary16 bits (HalfBits), one row per landmark.
-using HistogramHalves = Eigen::Matrix<uint16_t, Eigen::Dynamic, kNumHistograms, Eigen::RowMajor>;
+// Per-histogram spreads as bytes (ContextSpreadCode, compact.h), one row per landmark.
+using HistogramCodes = Eigen::Matrix<uint8_t, Eigen::Dynamic, kNumHistograms, Eigen::RowMajor>;
 
 // Dimensions of the projection S_D's lower bound uses (Map::local_basis): a quarter of the
 // descriptor's, where the bound lets through about 4% of pairs against 0.7% that pass
@@ -73,21 +74,18 @@ struct Map {
   std::vector<float> local_dmax;  // d_max
   std::vector<float> local_var;   // sigma^2 (floored)
   DescriptorBytes context_mean;   // mu of the context descriptor (16 histograms x 8)
-  HistogramHalves context_dmax;   // d_max per histogram
-  HistogramHalves context_var;    // sigma^2 per histogram (floored)
-  std::vector<float> mean_x;      // mean position over the landmark's observations
-  std::vector<float> mean_y;
-  std::vector<float> quality;  // Q (eq. 4)
+  HistogramCodes context_dmax;    // d_max per histogram
+  HistogramCodes context_var;     // sigma^2 per histogram (floored; code > 0)
+  std::vector<float> quality;     // Q (eq. 4)
 
-  // Observations (CSR over landmarks): the tour images a landmark was seen in and where.
+  // Observations (CSR over landmarks): the tour images a landmark was seen in and where:
+  // the keypoint's position, size (diameter, pixels) and orientation there (degrees in
+  // [0, 360), OpenCV's convention; observation_angles false: not known, in maps of format
+  // version 1).
   std::vector<uint32_t> observation_offsets;  // L + 1
   std::vector<uint32_t> observation_image;
-  std::vector<float> observation_x;
-  std::vector<float> observation_y;
-  std::vector<float> observation_size;  // keypoint size (diameter) in that image, pixels
-  // Keypoint orientation in that image, degrees in [0, 360) (OpenCV's convention); empty in
-  // maps of format version 1.
-  std::vector<float> observation_angle;
+  std::vector<PackedObservation> observations;
+  bool observation_angles = true;
 
   // Neighbours (CSR over landmarks), sorted by distance from the landmark's mean position;
   // NeighbourAt reads one.
@@ -139,8 +137,19 @@ struct Map {
     ContextMean(g, row.data());
     return row;
   }
-  float ContextDmax(int g, int h) const { return HalfValue(context_dmax(g, h)); }
-  float ContextVar(int g, int h) const { return HalfValue(context_var(g, h)); }
+  // Landmark g's mean position over its observations (x, y), pixels.
+  std::array<float, 2> MeanPosition(int g) const;
+  // Observation o's keypoint.
+  float ObservationX(size_t o) const { return observations[o].X(); }
+  float ObservationY(size_t o) const { return observations[o].Y(); }
+  float ObservationSize(size_t o) const { return observations[o].Size(); }
+  float ObservationAngle(size_t o) const { return observations[o].Angle(); }
+  void AddObservation(uint32_t image, float x, float y, float size, float angle_deg) {
+    observation_image.push_back(image);
+    observations.push_back(PackObservation(x, y, size, angle_deg));
+  }
+  float ContextDmax(int g, int h) const { return ContextSpreadCode().Decode(context_dmax(g, h)); }
+  float ContextVar(int g, int h) const { return ContextSpreadCode().Decode(context_var(g, h)); }
   // Neighbour k of the neighbour list (neighbours[k]) as S_N reads it.
   Neighbour NeighbourAt(size_t k) const {
     return Unpack(neighbours[k], static_cast<float>(frame_long_side()));

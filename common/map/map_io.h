@@ -3,7 +3,7 @@
 // sequence makes LoadMap or ParseMap crash, read out of bounds or allocate much more
 // than the file's own size; each failure is a status whose message names the file.
 //
-// Layout, format version 5. Integers are little-endian two's complement, f32/f64 are
+// Layout, format version 6. Integers are little-endian two's complement, f32/f64 are
 // IEEE 754 binary32/binary64 little-endian. There is no padding anywhere.
 //
 //   Header, 32 bytes:
@@ -36,11 +36,11 @@
 //                    (N x cols x rows x bins unit bytes, or empty with a zero grid)
 //     Landmarks      mat<u8> local_mean (128 cols, unit bytes), arr<f32> local_dmax,
 //                    arr<f32> local_var, mat<u8> context_mean (128),
-//                    mat<f16> context_dmax (16), mat<f16> context_var (16),
-//                    arr<f32> mean_x, arr<f32> mean_y, arr<f32> quality
+//                    mat<u8> context_dmax (16), mat<u8> context_var (16) (log codes),
+//                    arr<f32> quality
 //     Observations   arr<u32> observation_offsets, arr<u32> observation_image,
-//                    arr<f32> observation_x, arr<f32> observation_y,
-//                    arr<f32> observation_size, arr<f32> observation_angle
+//                    arr<observation> observations, u8 observation_angles (flag: the
+//                    orientations are known)
 //     Neighbours     arr<u32> neighbour_offsets, arr<neighbour> neighbours
 //     Image lists    arr<u32> image_offsets, arr<u32> image_landmarks
 //     Place index    i32 coarse, i32 fine, mat centroids (128 cols), arr<u32> landmark_word,
@@ -52,14 +52,28 @@
 //          arr<T>    = u64 element count, then the elements packed
 //          mat<T>    = u64 rows, u64 cols (must equal the stated count), rows x cols T
 //                      row-major (mat = mat<f32>)
-//          unit byte = a value in [0, 1] as round(255 x) (compact.h); f16 = IEEE binary16
-//          neighbour = 16 bytes (compact.h PackedNeighbour): u32 landmark, u16
-//                      distance_mean, u16 distance_sd, u16 distance_dmax (units of the
-//                      frame's long side / 32768), i16 angle_mean (pi / 32767),
-//                      u16 angle_sd (pi / 65535), u8 angle_dmax (pi / 255),
-//                      u8 cooccurrence (1 / 255)
+//          unit byte = a value in [0, 1] as round(255 x) (compact.h)
+//          log code  = a byte, 0 for 0 and 1..255 for low (high / low)^((c - 1) / 254)
+//                      (compact.h LogCode): context spreads low 1e-6, high 4
+//          observation = 8 bytes (compact.h PackedObservation): u16 x, u16 y (1/16
+//                      pixel), u16 size (f16, pixels), u16 angle (360 / 65536 degrees)
+//          neighbour = 12 bytes (compact.h PackedNeighbour): u32 landmark, u16
+//                      distance_mean (units of the frame's long side / 32768), u8
+//                      distance_sd, u8 distance_dmax (log codes of fractions of the long
+//                      side, low 1/32768, high 2), i8 angle_mean (pi / 128), u8 angle_sd
+//                      (log code of radians, low pi / 65536, high pi), u8 angle_dmax
+//                      (pi / 255), u8 cooccurrence (1 / 255)
 //
 //   where a u8 flag is 0 or 1.
+//
+//   Format version 5 (still read): as 6 with arr<f32> mean_x, arr<f32> mean_y (each
+//   landmark's mean position, which today's maps compute) before quality, the observations as
+//   arr<f32> observation_x, arr<f32> observation_y, arr<f32> observation_size, arr<f32>
+//   observation_angle (no flag: known), the context spreads as mat<f16> (IEEE binary16) and each
+//   neighbour as 16 bytes (u32 landmark, u16 distance_mean, u16 distance_sd, u16 distance_dmax in
+//   units of the long side / 32768, i16 angle_mean in pi / 32767, u16 angle_sd in pi / 65535, u8
+//   angle_dmax in pi / 255, u8 cooccurrence in 1 / 255); a reader codes them as version 6 stores
+//   them.
 //
 //   Format version 4 (still read): as 5 with the holistic descriptors, the mean descriptors
 //   and the context spreads as f32 (mat, arr<f32>) and each neighbour as 32 bytes (u32
@@ -99,7 +113,7 @@
 namespace sceneloc {
 
 inline constexpr char kMapMagic[8] = {'S', 'C', 'N', 'L', 'M', 'A', 'P', '\0'};
-inline constexpr uint32_t kMapFormatVersion = 5;
+inline constexpr uint32_t kMapFormatVersion = 6;
 inline constexpr size_t kMapHeaderBytes = 32;
 
 // What the header of a map file says.

@@ -6,6 +6,7 @@
 // Thread-safe: free functions without shared state.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <limits>
@@ -17,10 +18,28 @@ namespace sceneloc::map_io_internal {
 
 static_assert(std::numeric_limits<float>::is_iec559 && std::numeric_limits<double>::is_iec559);
 static_assert(sizeof(int) == 4, "the format stores int fields as i32");
-static_assert(std::is_trivially_copyable_v<PackedNeighbour> && sizeof(PackedNeighbour) == 16 &&
+static_assert(std::is_trivially_copyable_v<PackedNeighbour> && sizeof(PackedNeighbour) == 12 &&
                   offsetof(PackedNeighbour, distance_mean) == 4 &&
-                  offsetof(PackedNeighbour, cooccurrence) == 15,
-              "PackedNeighbour is copied as the 16-byte record of map_io.h");
+                  offsetof(PackedNeighbour, cooccurrence) == 11,
+              "PackedNeighbour is copied as the 12-byte record of map_io.h");
+
+// A neighbour as format version 5 stores it (16 bytes): distances in units of the frame's
+// long side / 32768, angles in pi / 32767 (mean), pi / 65535 (spread), pi / 255 (d_max).
+struct PackedNeighbourV5 {
+  uint32_t landmark = 0;
+  uint16_t distance_mean = 0;
+  uint16_t distance_sd = 0;
+  uint16_t distance_dmax = 0;
+  int16_t angle_mean = 0;
+  uint16_t angle_sd = 0;
+  uint8_t angle_dmax = 0;
+  uint8_t cooccurrence = 0;
+};
+static_assert(std::is_trivially_copyable_v<PackedNeighbourV5> && sizeof(PackedNeighbourV5) == 16 &&
+                  offsetof(PackedNeighbourV5, cooccurrence) == 15,
+              "PackedNeighbourV5 is read as the 16-byte record of format version 5");
+Neighbour UnpackV5(const PackedNeighbourV5& p, float frame);
+PackedNeighbourV5 PackV5(const Neighbour& n, float frame);
 static_assert(std::is_trivially_copyable_v<Neighbour> && sizeof(Neighbour) == 32 &&
                   offsetof(Neighbour, cooccurrence) == 4 && offsetof(Neighbour, angle_dmax) == 28,
               "Neighbour is read as the 32-byte record of format versions 1-4");
@@ -142,7 +161,7 @@ void TransferPlaceIndex(Archive& a, Index& p) {
 
 // The fields format version 5 stores compactly (compact.h) and older versions as floats:
 // an older version is written from, and read into, floats converted to and from the map's
-// compact fields (the map keeps what version 5 would).
+// compact fields (the map keeps what today's version would).
 template <typename Archive, typename Bytes>
 void UnitBytes(Archive& a, const char* name, uint32_t version, Bytes& bytes) {
   if (version >= 5) {
@@ -174,28 +193,69 @@ void DescriptorRows(Archive& a, const char* name, uint32_t version, Matrix& byte
   }
 }
 
+// The context spreads: version 6 stores their codes (ContextSpreadCode), version 5 binary16
+// values, older versions f32. `positive`: a code is at least 1 (a variance).
 template <typename Archive, typename Matrix>
-void HistogramRows(Archive& a, const char* name, uint32_t version, Matrix& halves) {
-  using Values = Eigen::Matrix<float, Eigen::Dynamic, kNumHistograms, Eigen::RowMajor>;
-  if (version >= 5) {
-    a.Field(name, halves);
-  } else if constexpr (std::is_const_v<Matrix>) {
-    Values values(halves.rows(), kNumHistograms);
-    for (Eigen::Index i = 0; i < values.size(); ++i) values.data()[i] = HalfValue(halves.data()[i]);
-    a.Field(name, values);
+void HistogramRows(Archive& a, const char* name, uint32_t version, bool positive, Matrix& codes) {
+  if (version >= 6) {
+    a.Field(name, codes);
+    return;
+  }
+  const LogCode& code = ContextSpreadCode();
+  const auto transfer = [&](auto value_type) {
+    using T = decltype(value_type);
+    using Values = Eigen::Matrix<T, Eigen::Dynamic, kNumHistograms, Eigen::RowMajor>;
+    const auto to_value = [](float v) {
+      if constexpr (std::is_same_v<T, float>)
+        return v;
+      else
+        return HalfBits(v);
+    };
+    const auto from_value = [](T v) {
+      if constexpr (std::is_same_v<T, float>)
+        return v;
+      else
+        return HalfValue(v);
+    };
+    if constexpr (std::is_const_v<Matrix>) {
+      Values values(codes.rows(), kNumHistograms);
+      for (Eigen::Index i = 0; i < values.size(); ++i)
+        values.data()[i] = to_value(code.Decode(codes.data()[i]));
+      a.Field(name, values);
+    } else {
+      Values values;
+      a.Field(name, values);
+      codes.resize(values.rows(), kNumHistograms);
+      for (Eigen::Index i = 0; i < values.size(); ++i) {
+        const uint8_t c = code.Encode(from_value(values.data()[i]));
+        codes.data()[i] = positive ? std::max<uint8_t>(c, 1) : c;
+      }
+    }
+  };
+  if (version == 5) {
+    transfer(uint16_t{});
   } else {
-    Values values;
-    a.Field(name, values);
-    halves.resize(values.rows(), kNumHistograms);
-    for (Eigen::Index i = 0; i < values.size(); ++i) halves.data()[i] = HalfBits(values.data()[i]);
+    transfer(float{});
   }
 }
 
 template <typename Archive, typename MapT>
 void Neighbours(Archive& a, uint32_t version, MapT& m) {
   const auto frame = static_cast<float>(std::max(m.image_width, m.image_height));
-  if (version >= 5) {
+  if (version >= 6) {
     a.Field("neighbours", m.neighbours);
+  } else if (version == 5) {
+    std::vector<PackedNeighbourV5> values;
+    if constexpr (std::is_const_v<MapT>) {
+      for (const PackedNeighbour& p : m.neighbours)
+        values.push_back(PackV5(Unpack(p, frame), frame));
+      a.Field("neighbours", values);
+    } else {
+      a.Field("neighbours", values);
+      m.neighbours.resize(values.size());
+      for (size_t i = 0; i < values.size(); ++i)
+        m.neighbours[i] = Pack(UnpackV5(values[i], frame), frame);
+    }
   } else if constexpr (std::is_const_v<MapT>) {
     std::vector<Neighbour> values;
     for (const PackedNeighbour& p : m.neighbours) values.push_back(Unpack(p, frame));
@@ -205,6 +265,41 @@ void Neighbours(Archive& a, uint32_t version, MapT& m) {
     a.Field("neighbours", values);
     m.neighbours.resize(values.size());
     for (size_t i = 0; i < values.size(); ++i) m.neighbours[i] = Pack(values[i], frame);
+  }
+}
+
+// Where the landmarks were seen: version 6 stores them packed (compact.h
+// PackedObservation) with a flag for whether the orientations are known; older versions
+// store f32 arrays of x, y and size, and from version 2 of the angle (version 1 has none).
+template <typename Archive, typename MapT>
+void Observations(Archive& a, uint32_t version, MapT& m) {
+  if (version >= 6) {
+    a.Field("observations", m.observations);
+    a.Field("observation_angles", m.observation_angles);
+    return;
+  }
+  std::vector<float> x, y, size, angle;
+  if constexpr (std::is_const_v<MapT>) {
+    for (const PackedObservation& o : m.observations) {
+      x.push_back(o.X());
+      y.push_back(o.Y());
+      size.push_back(o.Size());
+      angle.push_back(o.Angle());
+    }
+  }
+  a.Field("observation_x", x);
+  a.Field("observation_y", y);
+  a.Field("observation_size", size);
+  if (version >= 2) a.Field("observation_angle", angle);
+  if constexpr (!std::is_const_v<MapT>) {
+    // Arrays of different lengths leave the observations short, for Validate to report.
+    size_t n = std::min({x.size(), y.size(), size.size()});
+    if (version >= 2) n = std::min(n, angle.size());
+    m.observations.resize(n);
+    for (size_t i = 0; i < n; ++i) {
+      m.observations[i] = PackObservation(x[i], y[i], size[i], version >= 2 ? angle[i] : 0);
+    }
+    m.observation_angles = version >= 2;
   }
 }
 
@@ -226,17 +321,31 @@ void TransferMap(Archive& a, MapT& m, uint32_t version, V1& v1) {
   a.Field("local_dmax", m.local_dmax);
   a.Field("local_var", m.local_var);
   DescriptorRows(a, "context_mean", version, m.context_mean);
-  HistogramRows(a, "context_dmax", version, m.context_dmax);
-  HistogramRows(a, "context_var", version, m.context_var);
-  a.Field("mean_x", m.mean_x);
-  a.Field("mean_y", m.mean_y);
-  a.Field("quality", m.quality);
-  a.Field("observation_offsets", m.observation_offsets);
-  a.Field("observation_image", m.observation_image);
-  a.Field("observation_x", m.observation_x);
-  a.Field("observation_y", m.observation_y);
-  a.Field("observation_size", m.observation_size);
-  if (version >= 2) a.Field("observation_angle", m.observation_angle);
+  HistogramRows(a, "context_dmax", version, false, m.context_dmax);
+  HistogramRows(a, "context_var", version, true, m.context_var);
+  if (version >= 6) {
+    a.Field("quality", m.quality);
+    a.Field("observation_offsets", m.observation_offsets);
+    a.Field("observation_image", m.observation_image);
+    Observations(a, version, m);
+  } else {
+    // Older versions store each landmark's mean position, which today's maps compute from
+    // the observations (Map::MeanPosition): read and left, or written from them.
+    std::vector<float> mean_x, mean_y;
+    if constexpr (std::is_const_v<MapT>) {
+      for (int g = 0; g < m.num_landmarks(); ++g) {
+        const auto [x, y] = m.MeanPosition(g);
+        mean_x.push_back(x);
+        mean_y.push_back(y);
+      }
+    }
+    a.Field("mean_x", mean_x);
+    a.Field("mean_y", mean_y);
+    a.Field("quality", m.quality);
+    a.Field("observation_offsets", m.observation_offsets);
+    a.Field("observation_image", m.observation_image);
+    Observations(a, version, m);
+  }
   a.Field("neighbour_offsets", m.neighbour_offsets);
   Neighbours(a, version, m);
   a.Field("image_offsets", m.image_offsets);

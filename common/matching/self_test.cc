@@ -26,16 +26,17 @@ FeatureSet SelfTestFeatures(const Map& map, int location) {
   for (int i = 0; i < n; ++i) {
     const uint32_t g = map.image_landmarks[begin + static_cast<uint32_t>(i)];
     Keypoint& k = f.keypoints[static_cast<size_t>(i)];
-    k.x = map.mean_x[g];
-    k.y = map.mean_y[g];
+    const auto [x, y] = map.MeanPosition(static_cast<int>(g));
+    k.x = x;
+    k.y = y;
     k.size = 8.0f;
     // Where and how large g was seen in this very image (G_l holds only landmarks seen in
     // l), so verification's epipolar and scale checks see the location as it was.
     for (uint32_t o = map.observation_offsets[g]; o < map.observation_offsets[g + 1]; ++o) {
       if (map.observation_image[o] == static_cast<uint32_t>(location)) {
-        k.x = map.observation_x[o];
-        k.y = map.observation_y[o];
-        k.size = map.observation_size[o];
+        k.x = map.ObservationX(o);
+        k.y = map.ObservationY(o);
+        k.size = map.ObservationSize(o);
         break;
       }
     }

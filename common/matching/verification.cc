@@ -19,7 +19,7 @@ Verification VerifyCandidate(const FeatureSet& features, const Map& map, int loc
                              const LandmarkScope& scope, const std::vector<float>& best_score,
                              const std::vector<int32_t>& best_feature,
                              const VerifyOptions& options) {
-  const bool check_angle = options.angle_tolerance_deg > 0 && !map.observation_angle.empty();
+  const bool check_angle = options.angle_tolerance_deg > 0 && map.observation_angles;
   std::vector<cv::Point2f> query, tour;
   std::vector<float> log_scale;
   for (uint32_t k = map.image_offsets[location]; k < map.image_offsets[location + 1]; ++k) {
@@ -30,12 +30,12 @@ Verification VerifyCandidate(const FeatureSet& features, const Map& map, int loc
       if (map.observation_image[o] != static_cast<uint32_t>(location)) continue;
       const Keypoint& kp = features.keypoints[static_cast<size_t>(best_feature[p])];
       if (check_angle &&
-          AngleDifferenceDeg(kp.angle, map.observation_angle[o]) > options.angle_tolerance_deg) {
+          AngleDifferenceDeg(kp.angle, map.ObservationAngle(o)) > options.angle_tolerance_deg) {
         break;
       }
       query.emplace_back(kp.x, kp.y);
-      tour.emplace_back(map.observation_x[o], map.observation_y[o]);
-      log_scale.push_back(std::log(std::max(kp.size, 1e-3f) / map.observation_size[o]));
+      tour.emplace_back(map.ObservationX(o), map.ObservationY(o));
+      log_scale.push_back(std::log(std::max(kp.size, 1e-3f) / map.ObservationSize(o)));
       break;
     }
   }

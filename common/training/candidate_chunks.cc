@@ -103,8 +103,7 @@ void ReserveLandmarks(size_t count, Map* map) {
   map->context_mean.resize(rows, kDescriptorSize);
   map->context_dmax.resize(rows, kNumHistograms);
   map->context_var.resize(rows, kNumHistograms);
-  for (std::vector<float>* v :
-       {&map->local_dmax, &map->local_var, &map->mean_x, &map->mean_y, &map->quality}) {
+  for (std::vector<float>* v : {&map->local_dmax, &map->local_var, &map->quality}) {
     v->clear();
     v->reserve(count);
   }
@@ -120,18 +119,13 @@ void AppendLandmarks(const Map& part, Map* map) {
   PlaceRows(part.context_var, at, &map->context_var);
   Append(part.local_dmax, &map->local_dmax);
   Append(part.local_var, &map->local_var);
-  Append(part.mean_x, &map->mean_x);
-  Append(part.mean_y, &map->mean_y);
   Append(part.quality, &map->quality);
   const uint32_t base = static_cast<uint32_t>(map->observation_image.size());
   for (size_t g = 1; g < part.observation_offsets.size(); ++g) {
     map->observation_offsets.push_back(base + part.observation_offsets[g]);
   }
   Append(part.observation_image, &map->observation_image);
-  Append(part.observation_x, &map->observation_x);
-  Append(part.observation_y, &map->observation_y);
-  Append(part.observation_size, &map->observation_size);
-  Append(part.observation_angle, &map->observation_angle);
+  Append(part.observations, &map->observations);
 }
 
 }  // namespace sceneloc

@@ -1,6 +1,7 @@
 #include "common/training/cooccurrence.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "common/matching/similarity.h"
@@ -25,8 +26,8 @@ std::vector<Offset> SharedOffsets(const Map& map, uint32_t g, uint32_t h) {
     } else if (map.observation_image[b] < map.observation_image[a]) {
       ++b;
     } else {
-      const float dx = map.observation_x[b] - map.observation_x[a];
-      const float dy = map.observation_y[b] - map.observation_y[a];
+      const float dx = map.ObservationX(b) - map.ObservationX(a);
+      const float dy = map.ObservationY(b) - map.ObservationY(a);
       out.push_back({std::hypot(dx, dy), std::atan2(dy, dx)});
       ++a;
       ++b;
@@ -89,6 +90,8 @@ void BuildNeighbours(const TrainOptions& options, Map* map) {
   map->neighbour_offsets.assign(1, 0);
   map->neighbours.clear();
   std::vector<uint32_t> seen_stamp(num_landmarks, UINT32_MAX);
+  std::vector<std::array<float, 2>> mean(num_landmarks);
+  for (size_t g = 0; g < num_landmarks; ++g) mean[g] = map->MeanPosition(static_cast<int>(g));
   for (size_t g = 0; g < num_landmarks; ++g) {
     // Every landmark sharing an image with g, by distance between mean positions.
     std::vector<std::pair<float, uint32_t>> near;
@@ -98,8 +101,7 @@ void BuildNeighbours(const TrainOptions& options, Map* map) {
         const uint32_t h = map->image_landmarks[k];
         if (h == g || seen_stamp[h] == g) continue;
         seen_stamp[h] = static_cast<uint32_t>(g);
-        const float d =
-            std::hypot(map->mean_x[h] - map->mean_x[g], map->mean_y[h] - map->mean_y[g]);
+        const float d = std::hypot(mean[h][0] - mean[g][0], mean[h][1] - mean[g][1]);
         near.emplace_back(d, h);
       }
     }

@@ -64,9 +64,11 @@ void FuseOne(const Track& track, const TourWindow& tour, const TrainOptions& opt
   for (int h = 0; h < kNumHistograms; ++h) {
     const SpreadStats s =
         Spread(track.size(), context_row, context_mean.data(), h * kHistogramBins, kHistogramBins);
-    map->context_dmax(index, h) = HalfBits(s.dmax);
-    map->context_var(index, h) =
-        HalfBits(std::max(s.var, static_cast<float>(options.context_var_floor)));
+    map->context_dmax(index, h) = ContextSpreadCode().Encode(s.dmax);
+    // At least the code's lowest value (1e-6): a variance is never stored as 0.
+    map->context_var(index, h) = std::max<uint8_t>(
+        1,
+        ContextSpreadCode().Encode(std::max(s.var, static_cast<float>(options.context_var_floor))));
   }
 }
 
@@ -81,30 +83,16 @@ void FuseLandmarks(const std::vector<Track>& tracks, const TourWindow& tour,
   map->context_var.resize(n, kNumHistograms);
   map->local_dmax.assign(tracks.size(), 0);
   map->local_var.assign(tracks.size(), 0);
-  map->mean_x.assign(tracks.size(), 0);
-  map->mean_y.assign(tracks.size(), 0);
   map->quality.assign(tracks.size(), 0);
   map->observation_offsets.assign(1, 0);
   map->observation_image.clear();
-  map->observation_x.clear();
-  map->observation_y.clear();
-  map->observation_size.clear();
-  map->observation_angle.clear();
+  map->observations.clear();
   for (size_t t = 0; t < tracks.size(); ++t) {
     FuseOne(tracks[t], tour, options, static_cast<int>(t), map);
-    double sx = 0, sy = 0;
     for (const TrackObservation& o : tracks[t]) {
       const Keypoint& k = tour[o.image].keypoints[o.feature];
-      map->observation_image.push_back(o.image);
-      map->observation_x.push_back(k.x);
-      map->observation_y.push_back(k.y);
-      map->observation_size.push_back(k.size);
-      map->observation_angle.push_back(k.angle);
-      sx += k.x;
-      sy += k.y;
+      map->AddObservation(o.image, k.x, k.y, k.size, k.angle);
     }
-    map->mean_x[t] = static_cast<float>(sx / static_cast<double>(tracks[t].size()));
-    map->mean_y[t] = static_cast<float>(sy / static_cast<double>(tracks[t].size()));
     map->observation_offsets.push_back(static_cast<uint32_t>(map->observation_image.size()));
   }
 }

@@ -157,6 +157,37 @@ TEST_F(MapIoTest, DirectoryIsIoError) {
   ExpectLoadFailsAt(dir_.string(), StatusCode::kIoError, "not a regular file");
 }
 
+// A map written in format version 5 (tests/data/v5_map.scnl, before the context spreads
+// and the neighbours' spreads were log codes) loads, its spreads coded as today's, and is
+// saved again as today's, smaller.
+TEST(MapIoCompatibilityTest, VersionFiveMapLoads) {
+  MapFileInfo info;
+  auto map = LoadMap(SCENELOC_TEST_DATA "/v5_map.scnl", &info);
+  ASSERT_TRUE(map.ok()) << map.status().ToString();
+  EXPECT_EQ(info.format_version, 5u);
+  EXPECT_EQ(map->num_images(), 6);
+  EXPECT_EQ(map->options.eta, 30);
+  ASSERT_FALSE(map->neighbours.empty());
+  for (size_t k = 0; k < map->neighbours.size(); ++k) {
+    const Neighbour n = map->NeighbourAt(k);
+    ASSERT_GT(n.distance_var, 0);
+    ASSERT_GT(n.angle_var, 0);
+    // The training floors (distance sd 0.042 of the frame, angle variance 0.05), within
+    // half a code's step.
+    ASSERT_GE(std::sqrt(n.distance_var), 0.042 * map->frame_long_side() * 0.977) << k;
+    ASSERT_GE(n.angle_var, 0.05 * 0.955) << k;
+  }
+  for (int g = 0; g < map->num_landmarks(); ++g) {
+    for (int h = 0; h < kNumHistograms; ++h) ASSERT_GE(map->ContextVar(g, h), 0.016f * 0.96f);
+  }
+  const std::string bytes = SerializeMap(*map);
+  EXPECT_EQ(GetU32(bytes, 8), kMapFormatVersion);
+  EXPECT_LT(bytes.size(), std::filesystem::file_size(SCENELOC_TEST_DATA "/v5_map.scnl"));
+  auto again = ParseMap(bytes, "resaved");
+  ASSERT_TRUE(again.ok()) << again.status().ToString();
+  ExpectMapsEqual(*map, *again);
+}
+
 // A map written in format version 3 (tests/data/v3_map.scnl, before the quality window was
 // stored) loads with a window of 0, the whole tour its Q was measured over, and is saved
 // again as today's.
@@ -213,7 +244,7 @@ TEST(MapIoCompatibilityTest, VersionOneMapLoads) {
   EXPECT_NEAR(map->options.distance_sd_floor, 20.0 / 320, 1e-9);
   EXPECT_EQ(map->options.min_landmarks_per_image, 0);
   EXPECT_FALSE(map->has_holistic());
-  EXPECT_TRUE(map->observation_angle.empty());
+  EXPECT_FALSE(map->observation_angles);
   EXPECT_FALSE(map->calibration.valid);
   EXPECT_EQ(map->options.eta, 30);
   // Saved again, it is a version-2 file that loads the same.

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <string>
@@ -41,6 +42,34 @@ TEST(MapLayoutTest, VersionTwoRoundTrips) {
   V1Fields unused;
   Map read = Read(Write(map, 2), 2, &unused);
   read.Finalize();
+  test::ExpectMapsEqual(map, read);
+}
+
+// Version 5 stores the context spreads as binary16 and neighbours in 16 bytes: read back,
+// they are coded as today's map holds them, the same codes.
+TEST(MapLayoutTest, VersionFiveRoundTrips) {
+  Map map = test::MakeRandomMap(6, 40, 3);
+  V1Fields unused;
+  const std::string v5 = Write(map, 5);
+  EXPECT_GT(v5.size(), Write(map, kMapFormatVersion).size());
+  Map read = Read(v5, 5, &unused);
+  read.Finalize();
+  // Version 5 kept the distances' spreads in steps of 1/32768 of the frame: they come back
+  // within that step or one of their code's, the others as they were.
+  ASSERT_EQ(read.neighbours.size(), map.neighbours.size());
+  const float step = NeighbourDistanceCode().step() - 1;
+  const float unit = static_cast<float>(map.frame_long_side()) / 32768;
+  for (size_t k = 0; k < map.neighbours.size(); ++k) {
+    const Neighbour a = map.NeighbourAt(k), b = read.NeighbourAt(k);
+    EXPECT_EQ(a.distance_mean, b.distance_mean);
+    const float sd = std::sqrt(a.distance_var);
+    EXPECT_NEAR(std::sqrt(b.distance_var), sd, std::max(sd * step, unit) * 1.001f);
+    EXPECT_NEAR(b.distance_dmax, a.distance_dmax, std::max(a.distance_dmax * step, unit) * 1.001f);
+    EXPECT_EQ(a.angle_mean, b.angle_mean);
+    EXPECT_EQ(a.angle_var, b.angle_var);
+    EXPECT_EQ(a.cooccurrence, b.cooccurrence);
+  }
+  read.neighbours = map.neighbours;
   test::ExpectMapsEqual(map, read);
 }
 
@@ -115,7 +144,7 @@ TEST(MapLayoutTest, VersionOneStoresTheOldFields) {
   EXPECT_EQ(read_old.ransac_threshold_px, 2.5);
   EXPECT_EQ(read_old.distance_var_floor, 400.0);
   EXPECT_EQ(read.image_names, map.image_names);
-  EXPECT_TRUE(read.observation_angle.empty());
+  EXPECT_FALSE(read.observation_angles);
   EXPECT_FALSE(read.calibration.valid);
 }
 

@@ -25,7 +25,7 @@ FeatureSet FeaturesOfImage(const Map& map, int l, uint32_t seed) {
     for (uint32_t o = map.observation_offsets[g]; o < map.observation_offsets[g + 1]; ++o) {
       if (map.observation_image[o] != static_cast<uint32_t>(l)) continue;
       f.keypoints.push_back(
-          {map.observation_x[o], map.observation_y[o], map.observation_size[o], 0, 1, 0});
+          {map.ObservationX(o), map.ObservationY(o), map.ObservationSize(o), 0, 1, 0});
       rows.push_back(static_cast<int>(g));
     }
   }

@@ -63,9 +63,11 @@ TEST(NeighbourhoodTest, HandComputedWithAndWithoutCentreTerm) {
 TEST(NeighbourhoodTest, ArrangementSimilarityPenalisesWrongGeometry) {
   const Map map = HandMap();
   const FeatureSet f = HandFeatures(105);  // f1 is 11.18 px away at 26.6 degrees
+  // The spreads as the map keeps them (compact.h: within 2.2% of 100 and 0.01).
+  const Neighbour n1 = map.NeighbourAt(0);
   const double distance_error = std::hypot(10.0, 5.0) - 10.0;
-  const double s_distance = std::exp(-distance_error * distance_error / 200.0);
-  const double s_angle = std::exp(-std::pow(std::atan2(5.0, 10.0), 2) / 0.02);
+  const double s_distance = std::exp(-distance_error * distance_error / (2 * n1.distance_var));
+  const double s_angle = std::exp(-std::pow(std::atan2(5.0, 10.0), 2) / (2 * n1.angle_var));
   const double k1 = 0.8 * s_distance * s_angle / 2.0;
   const double k2 = (0.8 * s_distance * s_angle + 0.6 * 0.6) / 2.6;
   EXPECT_NEAR(NeighbourhoodSimilarity(f, map, kHandMatches, 0, 0, true, 0), std::max(k1, k2), 1e-6);

@@ -21,8 +21,8 @@ TEST(SelfTestTest, QueryIsTheLocationsOwnLandmarksAsSeenThere) {
       bool seen_here = false;
       for (uint32_t o = map.observation_offsets[g]; o < map.observation_offsets[g + 1]; ++o) {
         if (map.observation_image[o] != static_cast<uint32_t>(l)) continue;
-        EXPECT_EQ(f.keypoints[i].x, map.observation_x[o]);
-        EXPECT_EQ(f.keypoints[i].size, map.observation_size[o]);
+        EXPECT_EQ(f.keypoints[i].x, map.ObservationX(o));
+        EXPECT_EQ(f.keypoints[i].size, map.ObservationSize(o));
         seen_here = true;
       }
       EXPECT_TRUE(seen_here) << "landmark " << g << " of location " << l;

@@ -43,11 +43,8 @@ Scene MakeScene(int landmarks, int first_random, float size_ratio, uint32_t seed
     s.query.keypoints.push_back(
         {outlier ? x(rng) : p.x1, outlier ? y(rng) : p.y1, tour_size * size_ratio, 90, 1, 0});
     for (int image : {0, 1}) {
-      s.map.observation_image.push_back(image);
-      s.map.observation_x.push_back(image == 0 ? p.x0 : x(rng));
-      s.map.observation_y.push_back(image == 0 ? p.y0 : y(rng));
-      s.map.observation_size.push_back(tour_size);
-      s.map.observation_angle.push_back(90);
+      s.map.AddObservation(image, image == 0 ? p.x0 : x(rng), image == 0 ? p.y0 : y(rng), tour_size,
+                           90);
     }
     s.map.observation_offsets.push_back(static_cast<uint32_t>(s.map.observation_image.size()));
     s.map.image_landmarks.push_back(g);
@@ -113,13 +110,13 @@ TEST_P(VerificationTest, OrientationCheckDropsTurnedMatches) {
   for (int g = 0; g < 10; ++g) s.query.keypoints[g].angle = 180;
   for (int g = 10; g < 20; ++g) {
     s.query.keypoints[g].angle = 355;
-    s.map.observation_angle[2 * g] = 5;
+    s.map.observations[2 * g].angle = PackObservation(0, 0, 1, 5).angle;
   }
   VerifyOptions options;
   EXPECT_EQ(Run(s, options).correspondences, 30);  // no check by default
   options.angle_tolerance_deg = 20;
   EXPECT_EQ(Run(s, options).correspondences, 20);
-  s.map.observation_angle.clear();  // a map without orientations is not checked
+  s.map.observation_angles = false;  // a map without orientations is not checked
   EXPECT_EQ(Run(s, options).correspondences, 30);
 }
 
@@ -129,8 +126,8 @@ TEST_P(VerificationTest, OrientationCheckDropsTurnedMatches) {
 TEST_P(VerificationTest, TheTourCamerasOwnViewpointVerifies) {
   Scene s = MakeScene(30, 30, 1.0f, 8);
   for (int g = 0; g < 30; ++g) {
-    s.query.keypoints[g].x = s.map.observation_x[2 * g];
-    s.query.keypoints[g].y = s.map.observation_y[2 * g];
+    s.query.keypoints[g].x = s.map.ObservationX(2 * g);
+    s.query.keypoints[g].y = s.map.ObservationY(2 * g);
   }
   const Verification v = Run(s);
   EXPECT_EQ(v.correspondences, 30);

@@ -177,7 +177,7 @@ TEST_F(MapRegistryTest, SelfTestFeaturesRankTheirLocationFirst) {
       bool seen = false;
       for (uint32_t o = map->observation_offsets[g]; o < map->observation_offsets[g + 1]; ++o) {
         if (map->observation_image[o] != static_cast<uint32_t>(l)) continue;
-        EXPECT_EQ(f.keypoints[i].size, map->observation_size[o]);
+        EXPECT_EQ(f.keypoints[i].size, map->ObservationSize(o));
         seen = true;
       }
       EXPECT_TRUE(seen);

@@ -46,8 +46,8 @@ void FillDescriptors(std::mt19937& rng, Map* map) {
     map->local_var.push_back(Uniform(rng, 0.02f, 0.1f));
     map->quality.push_back(Uniform(rng, 0.0f, 5.0f));
     for (int h = 0; h < kNumHistograms; ++h) {
-      map->context_dmax(i, h) = HalfBits(Uniform(rng, 0.0f, 0.3f));
-      map->context_var(i, h) = HalfBits(Uniform(rng, 0.002f, 0.05f));
+      map->context_dmax(i, h) = ContextSpreadCode().Encode(Uniform(rng, 0.0f, 0.3f));
+      map->context_var(i, h) = ContextSpreadCode().Encode(Uniform(rng, 0.002f, 0.05f));
     }
   }
 }
@@ -60,18 +60,11 @@ void FillObservations(std::mt19937& rng, Map* map) {
     const int length = UniformInt(rng, std::min(2, n), std::min(5, n));
     const int first = UniformInt(rng, 0, n - length);
     const float x = Uniform(rng, 0.0f, kWidth), y = Uniform(rng, 0.0f, kHeight);
-    float sum_x = 0, sum_y = 0;
     for (int k = 0; k < length; ++k) {
-      map->observation_image.push_back(static_cast<uint32_t>(first + k));
-      map->observation_x.push_back(x + Uniform(rng, -3.0f, 3.0f));
-      map->observation_y.push_back(y + Uniform(rng, -3.0f, 3.0f));
-      map->observation_size.push_back(Uniform(rng, 2.0f, 20.0f));
-      map->observation_angle.push_back(Uniform(rng, 0.0f, 360.0f));
-      sum_x += map->observation_x.back();
-      sum_y += map->observation_y.back();
+      map->AddObservation(static_cast<uint32_t>(first + k), x + Uniform(rng, -3.0f, 3.0f),
+                          y + Uniform(rng, -3.0f, 3.0f), Uniform(rng, 2.0f, 20.0f),
+                          Uniform(rng, 0.0f, 360.0f));
     }
-    map->mean_x.push_back(sum_x / length);
-    map->mean_y.push_back(sum_y / length);
     map->observation_offsets.push_back(static_cast<uint32_t>(map->observation_image.size()));
   }
 }
@@ -111,8 +104,8 @@ std::vector<std::pair<uint32_t, int>> CoOccurring(const Map& map, int g, std::ve
 }
 
 Neighbour MakeNeighbour(std::mt19937& rng, const Map& map, int g, uint32_t other, int shared) {
-  const float dx = map.mean_x[other] - map.mean_x[g];
-  const float dy = map.mean_y[other] - map.mean_y[g];
+  const float dx = map.MeanPosition(static_cast<int>(other))[0] - map.MeanPosition(g)[0];
+  const float dy = map.MeanPosition(static_cast<int>(other))[1] - map.MeanPosition(g)[1];
   Neighbour n;
   n.landmark = other;
   n.cooccurrence = static_cast<float>(shared) /
@@ -279,15 +272,11 @@ void ExpectMapsEqual(const Map& a, const Map& b) {
   ExpectMatricesEqual("context_mean", a.context_mean, b.context_mean);
   ExpectMatricesEqual("context_dmax", a.context_dmax, b.context_dmax);
   ExpectMatricesEqual("context_var", a.context_var, b.context_var);
-  ExpectArraysEqual("mean_x", a.mean_x, b.mean_x);
-  ExpectArraysEqual("mean_y", a.mean_y, b.mean_y);
   ExpectArraysEqual("quality", a.quality, b.quality);
   ExpectArraysEqual("observation_offsets", a.observation_offsets, b.observation_offsets);
   ExpectArraysEqual("observation_image", a.observation_image, b.observation_image);
-  ExpectArraysEqual("observation_x", a.observation_x, b.observation_x);
-  ExpectArraysEqual("observation_y", a.observation_y, b.observation_y);
-  ExpectArraysEqual("observation_size", a.observation_size, b.observation_size);
-  ExpectArraysEqual("observation_angle", a.observation_angle, b.observation_angle);
+  ExpectArraysEqual("observations", a.observations, b.observations);
+  EXPECT_EQ(a.observation_angles, b.observation_angles);
   ExpectArraysEqual("neighbour_offsets", a.neighbour_offsets, b.neighbour_offsets);
   ExpectArraysEqual("neighbours", a.neighbours, b.neighbours);
   ExpectArraysEqual("image_offsets", a.image_offsets, b.image_offsets);

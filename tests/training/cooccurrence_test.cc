@@ -20,12 +20,10 @@ TEST(CooccurrenceTest, HandComputedStatistics) {
   map.image_width = 200;
   map.image_height = 100;
   map.local_mean.setZero(2, kDescriptorSize);
-  map.mean_x = {0, 5};
-  map.mean_y = {0, 6};
   map.observation_offsets = {0, 3, 5};
-  map.observation_image = {0, 1, 2, 1, 2};
-  map.observation_x = {0, 0, 0, 10, 0};
-  map.observation_y = {0, 0, 0, 0, 12};
+  const float x[] = {0, 0, 0, 10, 0}, y[] = {0, 0, 0, 0, 12};
+  const uint32_t image[] = {0, 1, 2, 1, 2};
+  for (int o = 0; o < 5; ++o) map.AddObservation(image[o], x[o], y[o], 4, 0);
   TrainOptions options;
   options.distance_sd_floor = 0.01;
   options.angle_var_floor = 0.01;
@@ -36,15 +34,16 @@ TEST(CooccurrenceTest, HandComputedStatistics) {
   EXPECT_EQ(n.landmark, 1u);
   EXPECT_NEAR(n.cooccurrence, 2.0f / 3.0f, 0.5 / 255);
   EXPECT_NEAR(n.distance_mean, 11.0f, 0.004);
-  EXPECT_NEAR(n.distance_var, 4.0f, 0.02);  // raw variance 1 is below the floor
-  EXPECT_NEAR(n.distance_dmax, 1.0f, 0.004);
-  EXPECT_NEAR(n.angle_mean, M_PI / 4, 1e-4);
+  // Spreads within half a step of their log codes (2.2%), angles within pi / 256.
+  EXPECT_NEAR(n.distance_var, 4.0f, 4.0f * 0.045f);  // raw variance 1 is below the floor
+  EXPECT_NEAR(n.distance_dmax, 1.0f, 0.022f);
+  EXPECT_NEAR(n.angle_mean, M_PI / 4, M_PI / 256);
   EXPECT_NEAR(n.angle_dmax, M_PI / 4, M_PI / 510);
-  EXPECT_NEAR(n.angle_var, M_PI * M_PI / 16, 1e-4);
+  EXPECT_NEAR(n.angle_var, M_PI * M_PI / 16, M_PI * M_PI / 16 * 0.045);
   const Neighbour back = map.NeighbourAt(1);
   EXPECT_EQ(back.landmark, 0u);
   EXPECT_FLOAT_EQ(back.cooccurrence, 1.0f);
-  EXPECT_NEAR(back.angle_mean, -3 * M_PI / 4, 1e-4);  // the reverse direction
+  EXPECT_NEAR(back.angle_mean, -3 * M_PI / 4, M_PI / 256);  // the reverse direction
 }
 
 // Only the max_neighbours nearest (by mean position) are kept, nearest first.
@@ -52,12 +51,8 @@ TEST(CooccurrenceTest, KeepsNearestNeighboursInOrder) {
   Map map;
   map.image_names = {"a"};
   map.local_mean.setZero(4, kDescriptorSize);
-  map.mean_x = {0, 30, 10, 20};
-  map.mean_y = {0, 0, 0, 0};
   map.observation_offsets = {0, 1, 2, 3, 4};
-  map.observation_image = {0, 0, 0, 0};
-  map.observation_x = map.mean_x;
-  map.observation_y = map.mean_y;
+  for (const float x : {0, 30, 10, 20}) map.AddObservation(0, x, 0, 4, 0);
   TrainOptions options;
   options.max_neighbours = 2;
   BuildNeighbours(options, &map);

@@ -29,10 +29,12 @@ TEST(LandmarkBuilderTest, FusesMeanDmaxAndFlooredVariance) {
   EXPECT_NEAR(map.local_var[0], 0.5f, 0.5f / 255);
   for (int h = 0; h < kNumHistograms; ++h) {
     EXPECT_NEAR(map.ContextDmax(0, h), 0.0f, std::sqrt(8.0f) * 0.5f / 255);
-    EXPECT_NEAR(map.ContextVar(0, h), float(options.context_var_floor), 1e-5);
+    // The floor, within half a step of its code.
+    EXPECT_NEAR(map.ContextVar(0, h), float(options.context_var_floor),
+                options.context_var_floor * (std::sqrt(ContextSpreadCode().step()) - 1));
   }
-  EXPECT_FLOAT_EQ(map.mean_x[0], 12.0f);
-  EXPECT_FLOAT_EQ(map.mean_y[0], 20.0f);
+  EXPECT_FLOAT_EQ(map.MeanPosition(0)[0], 12.0f);
+  EXPECT_FLOAT_EQ(map.MeanPosition(0)[1], 20.0f);
   EXPECT_EQ(map.observation_offsets, (std::vector<uint32_t>{0, 2}));
   EXPECT_EQ(map.observation_image, (std::vector<uint32_t>{0, 1}));
 }

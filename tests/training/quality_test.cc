@@ -33,8 +33,8 @@ TEST(QualityTest, HandComputedEquationFour) {
   map.context_mean = map.local_mean;
   map.local_dmax = {0.01f, 0.01f};
   map.local_var = {0.001f, 0.001f};
-  map.context_dmax.setConstant(2, kNumHistograms, HalfBits(0.01f));
-  map.context_var.setConstant(2, kNumHistograms, HalfBits(0.001f));
+  map.context_dmax.setConstant(2, kNumHistograms, ContextSpreadCode().Encode(0.01f));
+  map.context_var.setConstant(2, kNumHistograms, ContextSpreadCode().Encode(0.001f));
   map.Finalize();  // the derived fields S_D reads
 
   std::vector<FeatureSet> tour(2);
