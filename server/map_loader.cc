@@ -270,7 +270,7 @@ void MapLoader::SyncFile(const std::string& map) {
   const std::string path = PathOf(map);
   std::error_code ec;
   if (fs::is_regular_file(path, ec)) {
-    LoadAndLog("file changed", map, path, registry_);
+    static_cast<void>(LoadAndLog("file changed", map, path, registry_));  // it logs the outcome
     return;
   }
   if (registry_->Remove(map)) {
@@ -283,7 +283,8 @@ void MapLoader::SyncFolder() {
   const std::set<std::string> files = MapFilesIn(options_.maps_dir);
   for (const std::string& map : files) {
     if (Stopping()) return;
-    LoadAndLog("reload all", map, PathOf(map), registry_);
+    static_cast<void>(
+        LoadAndLog("reload all", map, PathOf(map), registry_));  // it logs the outcome
   }
   for (const auto& loaded : registry_->List()) {
     if (files.count(loaded->name) == 0) SyncFile(loaded->name);
