@@ -202,7 +202,9 @@ TEST_F(PlaceIndexTest, ScopePositionsAreItsOwn) {
     for (uint32_t k = map.image_offsets[40]; k < map.image_offsets[41]; ++k) {
       in_second |= map.image_landmarks[k] == g;
     }
-    if (!in_second) EXPECT_EQ(second.Position(g), -1) << g;
+    if (!in_second) {
+      EXPECT_EQ(second.Position(g), -1) << g;
+    }
   }
   const LandmarkScope whole = LandmarkScope::Whole(map);
   EXPECT_EQ(whole.size(), static_cast<size_t>(map.num_landmarks()));
