@@ -366,7 +366,10 @@ void SequenceFilter::Observe(const std::vector<float>& scores, double in_map,
   // every process compacts a belief the same way.
   std::vector<uint32_t>& order = work.order;
   order.clear();
-  if (tracked_ < n) {
+  if (tracked_ >= n) {
+    order.resize(static_cast<size_t>(n));
+    std::iota(order.begin(), order.end(), 0u);
+  } else if (tracked_ > 0) {
     // The tracked_-th most probable belief, then every location above it and, in location
     // order, as many as are needed of those at it.
     std::vector<double>& ranked = work.ranked;
@@ -381,9 +384,6 @@ void SequenceFilter::Observe(const std::vector<float>& scores, double in_map,
       if (at[l] > least || (at[l] == least && at_least-- > 0))
         order.push_back(static_cast<uint32_t>(l));
     }
-  } else {
-    order.resize(static_cast<size_t>(n));
-    std::iota(order.begin(), order.end(), 0u);
   }
   state->tracked.assign(order.begin(), order.end());
   state->speeds.assign((state->tracked.size() + 1) * speeds, 0.0f);
