@@ -78,11 +78,34 @@ sceneloc::Status CheckOutput(const std::string& out_path) {
   return sceneloc::Status::Ok();
 }
 
+// Rewrites the map file `in` in today's format at `out`: a map of an older format loads (its
+// arrays converted while read), but each load pays the conversion. Returns the exit code.
+int Upgrade(const std::string& in, const std::string& out) {
+  sceneloc::MapFileInfo before;
+  auto map = sceneloc::LoadMap(in, &before);
+  if (!map.ok()) {
+    std::fprintf(stderr, "sceneloc-train: %s\n", map.status().message().c_str());
+    return 1;
+  }
+  sceneloc::MapFileInfo after;
+  if (const sceneloc::Status s = sceneloc::SaveMap(*map, out, &after); !s.ok()) {
+    std::fprintf(stderr, "sceneloc-train: %s\n", s.message().c_str());
+    return 1;
+  }
+  std::printf("%s: format %u, %.1f MB -> %s: format %u, %.1f MB (%d locations)\n", in.c_str(),
+              before.format_version,
+              static_cast<double>(sceneloc::kMapHeaderBytes + before.payload_bytes) / 1e6,
+              out.c_str(), after.format_version,
+              static_cast<double>(sceneloc::kMapHeaderBytes + after.payload_bytes) / 1e6,
+              map->num_images());
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"sceneloc-train: build a landmark map from a training tour"};
-  std::string tour_dir, out_path, config_path, spool_dir;
+  std::string tour_dir, out_path, config_path, spool_dir, upgrade_path;
   int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   int eta = -1;
   bool print_config = false;
@@ -95,6 +118,9 @@ int main(int argc, char** argv) {
   app.add_option("--spool-dir", spool_dir,
                  "folder for the features while training, about 1 MB per tour image, removed "
                  "when done (default: the folder of --out)");
+  app.add_option("--upgrade", upgrade_path,
+                 "instead of training, rewrite this map file in today's format at --out (older "
+                 "formats load too, converted on every load)");
   app.add_flag("--print-config", print_config,
                "print the settings in effect (defaults, --config, --eta) as a documented "
                "settings file, and exit");
@@ -112,6 +138,17 @@ int main(int argc, char** argv) {
   if (print_config) {
     std::fputs(sceneloc::DocumentedTrainSettings(options).c_str(), stdout);
     return 0;
+  }
+  if (!upgrade_path.empty()) {
+    if (!tour_dir.empty() || out_path.empty()) {
+      std::fprintf(stderr, "sceneloc-train: --upgrade takes --out and no --tour (see --help)\n");
+      return 2;
+    }
+    if (const sceneloc::Status s = CheckOutput(out_path); !s.ok()) {
+      std::fprintf(stderr, "sceneloc-train: %s\n", s.message().c_str());
+      return 2;
+    }
+    return Upgrade(upgrade_path, out_path);
   }
   if (tour_dir.empty() || out_path.empty()) {
     std::fprintf(stderr, "sceneloc-train: --tour and --out are required (see --help)\n");

@@ -172,6 +172,35 @@ TEST_F(CliTest, EvalRefusesBadMaps) {
                      {"Image000.jpg", "not a sceneloc map"});
 }
 
+// --upgrade rewrites a map of an older format in today's, which loads the same; a file that
+// is not a map, or --upgrade beside --tour, is one line of error and no file.
+TEST_F(CliTest, UpgradeRewritesAnOlderMap) {
+  const std::string out = (dir_ / "upgraded.scnl").string();
+  const RunResult r = RunCommand(std::string(SCENELOC_TRAIN_BIN) + " --upgrade '" +
+                                 SCENELOC_TEST_DATA + "/v5_map.scnl' --out '" + out + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("format 5"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("format " + std::to_string(kMapFormatVersion)), std::string::npos);
+  MapFileInfo info;
+  auto upgraded = LoadMap(out, &info);
+  ASSERT_TRUE(upgraded.ok()) << upgraded.status().ToString();
+  EXPECT_EQ(info.format_version, kMapFormatVersion);
+  auto original = LoadMap(std::string(SCENELOC_TEST_DATA) + "/v5_map.scnl");
+  ASSERT_TRUE(original.ok());
+  EXPECT_EQ(upgraded->num_landmarks(), original->num_landmarks());
+  EXPECT_EQ(upgraded->neighbours.size(), original->neighbours.size());
+
+  const std::string bad = (dir_ / "not_a_map.scnl").string();
+  ExpectOneLineError(
+      RunCommand(std::string(SCENELOC_TRAIN_BIN) + " --upgrade '" +
+                 (dir_ / "tour" / "Image000.jpg").string() + "' --out '" + bad + "'"),
+      {"Image000.jpg", "not a sceneloc map"});
+  EXPECT_FALSE(fs::exists(bad));
+  ExpectOneLineError(RunCommand(Train((dir_ / "tour").string(), bad, "--upgrade '" + out + "'")),
+                     {"--upgrade"});
+  EXPECT_FALSE(fs::exists(bad));
+}
+
 // sceneloc-eval on query folders it cannot use: a non-image file, an empty folder, and a
 // query with no tour image of its name.
 TEST_F(CliTest, EvalRefusesBadQueryFolders) {
