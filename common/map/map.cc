@@ -1,6 +1,7 @@
 #include "common/map/map.h"
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -94,11 +95,16 @@ Status CheckVector(const char* name, const std::vector<float>& v, Range range) {
   return CheckValues(name, v.data(), v.size(), 1, range);
 }
 
-// CheckValues of context spread codes.
-Status CheckSpreadCodes(const char* name, const HistogramCodes& m, Range range) {
-  std::vector<float> values(static_cast<size_t>(m.size()));
-  for (size_t i = 0; i < values.size(); ++i) values[i] = ContextSpreadCode().Decode(m.data()[i]);
-  return CheckValues(name, values.data(), values.size(), kNumHistograms, range);
+// Context spread codes that must be positive: every code decodes to a finite value >= 0,
+// so only code 0 (the value 0) can be wrong. Scans the bytes, decoding nothing.
+Status CheckPositiveCodes(const char* name, const HistogramCodes& m) {
+  const uint8_t* begin = m.data();
+  const uint8_t* zero = std::find(begin, begin + m.size(), uint8_t{0});
+  if (zero == begin + m.size()) return Status::Ok();
+  const auto i = static_cast<size_t>(zero - begin);
+  return DataLoss(std::string(name) + "[" + std::to_string(i / kNumHistograms) + "][" +
+                  std::to_string(i % kNumHistograms) + "] is 0, must be " +
+                  Describe(Range::kPositive));
 }
 
 Status CheckCount(const char* name, size_t size, size_t expected, const char* what) {
@@ -233,8 +239,8 @@ Status ValidateLandmarkValues(const Map& map) {
   // The mean descriptors are bytes: any value is a valid one.
   SCENELOC_RETURN_IF_ERROR(CheckVector("local_dmax", map.local_dmax, Range::kNonNegative));
   SCENELOC_RETURN_IF_ERROR(CheckVector("local_var", map.local_var, Range::kPositive));
-  SCENELOC_RETURN_IF_ERROR(CheckSpreadCodes("context_dmax", map.context_dmax, Range::kNonNegative));
-  SCENELOC_RETURN_IF_ERROR(CheckSpreadCodes("context_var", map.context_var, Range::kPositive));
+  // Every d_max code is a value >= 0; a variance's code must not be 0.
+  SCENELOC_RETURN_IF_ERROR(CheckPositiveCodes("context_var", map.context_var));
   SCENELOC_RETURN_IF_ERROR(CheckVector("quality", map.quality, Range::kAny));
   // Positions and orientations are fixed point: any value is a valid one.
   for (size_t o = 0; o < map.observations.size(); ++o) {
