@@ -1,7 +1,7 @@
-// A fleet laid out as groups (README "A fleet"): one sceneloc-broker per group of maps, and
-// a routes file that says which broker serves which map. Client::Connect takes
-// "routes:FILE" as its endpoint and sends each request to its map's broker, so every tool
-// and robot reaches a fleet of groups through one setting.
+// A fleet laid out as groups (docs/operations.md "A fleet"): one sceneloc-broker per group of maps,
+// and a routes file that says which broker serves which map. Client::Connect takes "routes:FILE" as
+// its endpoint and sends each request to its map's broker, so every tool and robot reaches a fleet
+// of groups through one setting.
 //
 // The routes file (YAML):
 //   maps:                          # map name -> the endpoint of the broker serving it

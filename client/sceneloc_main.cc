@@ -9,7 +9,7 @@
 //                  [--json OUT] DIR
 //   sceneloc keygen NAME [--dir DIR] [--force]   a CURVE key pair: NAME.key and NAME.pub
 // Every command that talks to a server takes --key FILE --server-key FILE when the server
-// runs with auth.enabled (README "Authenticated clients").
+// runs with auth.enabled (docs/security.md).
 // Exit status: 0 when every request was answered OK, 1 when any got an error reply or
 // none at all, 2 for bad arguments or unreadable files.
 #include <CLI/CLI.hpp>

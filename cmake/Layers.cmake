@@ -1,4 +1,4 @@
-# The build enforces the module table of README.md: a target sees the headers of the
+# The build enforces the module table of docs/development.md: a target sees the headers of the
 # targets it links, and no others.
 #
 # Sources include headers by their path from the source root ("common/util/status.h"), so

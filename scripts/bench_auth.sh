@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# What CURVE costs (README "Authenticated clients"): one client's latency with feature-set
+# What CURVE costs (docs/security.md): one client's latency with feature-set
 # and JPEG requests, and 8 clients' throughput, against the 200-location Gardens Point map,
 # with auth off and on, in alternating rounds in one run (so drift hits both alike). Prints
 # p50 and p99 of each and the ratio on/off. About 2 x ROUNDS x 3 x SECONDS seconds.

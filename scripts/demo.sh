@@ -4,7 +4,7 @@
 # a free local port, localises every test frame through the `sceneloc` client, prints the
 # answers (location, LOCALISED or UNKNOWN, confidence), the match rate (answer within ±1 of
 # the true location) and how many answers were confident enough to act on, sends the same
-# frames again as one robot's session (README "Robot sessions") and shows the session's
+# frames again as one robot's session (docs/sessions.md) and shows the session's
 # answers, and stops the server.
 # Usage: scripts/demo.sh [WORK_DIR]   (default: ./demo-out)
 set -euo pipefail

@@ -10,7 +10,7 @@
 //
 // Every worker behind one broker must serve the same maps (the proxy does not look inside
 // requests): a fleet with more maps than one machine holds is laid out as groups, one
-// broker per group (README "A fleet").
+// broker per group (docs/operations.md "A fleet").
 //
 // With auth, the broker is where robots authenticate: CURVE on the frontend and the same
 // ZAP check a server makes (zap_handler.h) against the same authorised-clients file, so a

@@ -2,7 +2,7 @@
 //
 // A request takes its snapshot once (Get) and uses only it, so a reload or a removal
 // never changes a map under a running request: the old snapshot lives until the last
-// request holding it finishes (README "Hot reload"; LevelDB pins its version per read the
+// request holding it finishes (docs/server.md "Hot reload"; LevelDB pins its version per read the
 // same way).
 //
 // Loading reads, checksums and validates the whole file (LoadMap) and then runs a

@@ -238,9 +238,9 @@ std::string DocumentedServerSettings(const ServerOptions& options) {
       "# defaults). Every field is also a flag (sceneloc-server --help): a flag overrides the\n"
       "# file. Unknown keys are errors. Meaning of each: server/server_options.h.\n",
       {{"auth",
-        "Who may connect (README \"Authenticated clients\"). Off: anyone who reaches\n"
+        "Who may connect (docs/security.md). Off: anyone who reaches\n"
         "the endpoint."},
-       {"sessions", "Robots' sessions kept in the server (README \"Robot sessions\")."},
+       {"sessions", "Robots' sessions kept in the server (docs/sessions.md)."},
        {"matching", "Recognition settings, as configs/match.yaml (common/matching/localiser.h)."},
        {"sequence", "The filter of requests that name a session, as configs/match.yaml."}});
 }

@@ -58,8 +58,8 @@ struct RequestLimits {
   int max_in_flight_per_client = 8;
   // With auth on: requests all the connections of one key may have queued or running at
   // once; one more gets OVERLOADED. A client that opens many connections (a few hundred
-  // requests sent and never read) still counts as one. Give each robot its own key (README
-  // "Authenticated clients"), or raise this for keys that robots share.
+  // requests sent and never read) still counts as one. Give each robot its own key
+  // (docs/security.md), or raise this for keys that robots share.
   int max_in_flight_per_key = 8;
   // Bytes of the requests queued or running at once, all connections together; a request
   // that would pass it gets OVERLOADED (so 64 requests of 8 MiB cannot pin 512 MiB).
@@ -81,8 +81,8 @@ struct RequestLimits {
   Status Validate() const;
 };
 
-// Who may connect (server/zap_handler.h). Off by default; see the README's "Authenticated
-// clients" for a worked example.
+// Who may connect (server/zap_handler.h). Off by default; docs/security.md has a worked
+// example.
 struct AuthOptions {
   // CURVE encryption and the authorised-clients check on the server socket.
   bool enabled = false;

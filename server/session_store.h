@@ -10,7 +10,7 @@
 // The store is half of where a session lives: every reply also carries the state
 // (session_token.h) and a request that sends it back continues from it (SessionSeed), so
 // a session survives eviction, expiry, a restart, and frames answered by another process
-// (README "Robot sessions" says why both).
+// (docs/sessions.md says why both).
 //
 // Thread-safe: Update may run on any number of threads at once. The store's mutex guards
 // the table of sessions and is held only to find, add or drop one; each session has its own

@@ -1,4 +1,4 @@
-// The baselines every accuracy and speed claim is measured against (README "Measurements",
+// The baselines every accuracy and speed claim is measured against (docs/measurements.md,
 // docs/results.md): every feature of every tour image in one FLANN kd-tree index; each
 // query feature votes for the tour image of its nearest neighbour when it passes Lowe's
 // ratio test (0.8); tour images are ranked by votes. The stronger variant a user would

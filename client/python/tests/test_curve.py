@@ -1,5 +1,5 @@
 """CURVE: a server with auth.enabled answers a client holding a listed key pair and the
-server's public key, and nothing else (README "Authenticated clients")."""
+server's public key, and nothing else (docs/security.md)."""
 from __future__ import annotations
 
 import subprocess
