@@ -24,6 +24,7 @@
 #include "common/config/config.h"
 #include "common/features/extractor.h"
 #include "common/keys/keys.h"
+#include "common/util/version.h"
 
 namespace {
 
@@ -195,11 +196,12 @@ void PrintMaps(const google::protobuf::RepeatedPtrField<v1::MapInfo>& maps) {
   for (const v1::MapInfo& m : maps) {
     std::printf(
         "%s\tgeneration %llu\tchecksum %08x\t%d locations\t%d landmarks\t%.1f MB\t%s\t"
-        "confidence %s (±%d)\n",
+        "confidence %s (±%d)\ttrained by %s\n",
         m.version().name().c_str(), static_cast<unsigned long long>(m.version().generation()),
         m.version().checksum(), m.num_locations(), m.num_landmarks(),
         static_cast<double>(m.memory_bytes()) / 1e6, m.loaded_utc().c_str(),
-        m.confidence_model().c_str(), m.tolerance());
+        m.confidence_model().c_str(), m.tolerance(),
+        m.trained_by().empty() ? "an unknown version" : m.trained_by().c_str());
   }
 }
 
@@ -411,6 +413,7 @@ int RunOnServer(const Commands& cmd, CommandLine* c) {
 
 int main(int argc, char** argv) {
   CLI::App app{"sceneloc: client of sceneloc-server"};
+  app.set_version_flag("--version", std::string(sceneloc::Version()));
   app.require_subcommand(1);
   CommandLine c;
   const Commands cmd = AddCommands(&app, &c);

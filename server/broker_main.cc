@@ -11,10 +11,12 @@
 #include <CLI/CLI.hpp>
 #include <csignal>
 
+#include "common/util/version.h"
 #include "server/broker.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"sceneloc-broker: one address for many sceneloc-server workers"};
+  app.set_version_flag("--version", std::string(sceneloc::Version()));
   sceneloc::BrokerOptions options;
   std::string log_level = "info";
   app.add_option("--frontend", options.frontend, "endpoint clients connect to")

@@ -189,6 +189,8 @@ void FillMapInfo(const LoadedMap& map, v1::MapInfo* info) {
   info->set_confidence_model(
       ConfidenceModelName(SupportedModel(map.map, ConfidenceModel::kCalibrated)));
   info->set_tolerance(map.map.options.tolerance);
+  info->set_trained_by(map.map.provenance.tool_version);
+  info->set_trained_utc(map.map.provenance.created_utc);
 }
 
 RequestHandler::RequestHandler(const ServerOptions& options, MapRegistry* registry,

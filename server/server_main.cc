@@ -17,6 +17,7 @@
 #include "common/util/malloc_policy.h"
 #include "common/util/thread_pool.h"
 #include "common/util/timer.h"
+#include "common/util/version.h"
 #include "server/map_registry.h"
 #include "server/server.h"
 #include "server/server_options.h"
@@ -101,6 +102,7 @@ void WaitForStop(const sigset_t& signals, const sceneloc::ServerOptions& options
 
 int main(int argc, char** argv) {
   CLI::App app{"sceneloc-server: serves landmark maps over ZeroMQ"};
+  app.set_version_flag("--version", std::string(sceneloc::Version()));
   std::string config_path;
   app.add_option("--config", config_path, "settings file, e.g. configs/server.yaml");
   bool print_config = false;
@@ -138,6 +140,7 @@ int main(int argc, char** argv) {
     return 0;
   }
   spdlog::set_level(spdlog::level::from_str(options.log_level));
+  spdlog::info("sceneloc-server {}", sceneloc::Version());
   spdlog::debug("settings:\n{}", sceneloc::ServerOptionsToYaml(options));
 
   // Block the signals in every thread (they inherit the mask) and take them here.

@@ -21,6 +21,7 @@
 #include "common/util/image_folder.h"
 #include "common/util/progress_printer.h"
 #include "common/util/timer.h"
+#include "common/util/version.h"
 #include "tools/eval/accuracy_suite.h"
 #include "tools/eval/distractor_suite.h"
 #include "tools/eval/reliability_plot.h"
@@ -481,6 +482,7 @@ int main(int argc, char** argv) {
   CLI::App app{
       "sceneloc-accuracy: every development set, ours beside the paper and both "
       "baselines on the same features"};
+  app.set_version_flag("--version", std::string(sceneloc::Version()));
   Args a;
   AddOptions(&app, &a);
   CLI11_PARSE(app, argc, argv);

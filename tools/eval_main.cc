@@ -21,6 +21,7 @@
 #include "common/training/trainer.h"
 #include "common/util/image_folder.h"
 #include "common/util/timer.h"
+#include "common/util/version.h"
 #include "tools/eval/eval_report.h"
 #include "tools/eval/evaluation.h"
 #include "tools/eval/reliability_plot.h"
@@ -270,6 +271,7 @@ int Run(const Args& args) {
 
 int main(int argc, char** argv) {
   CLI::App app{"sceneloc-eval: match rate, confidence and timing of a map on a query folder"};
+  app.set_version_flag("--version", std::string(sceneloc::Version()));
   Args args;
   bool print_config = false;
   app.add_flag("--print-config", print_config,

@@ -18,6 +18,7 @@
 #include "common/config/config.h"
 #include "common/training/trainer.h"
 #include "common/util/timer.h"
+#include "common/util/version.h"
 #include "tools/eval/evaluation.h"
 #include "tools/eval/feature_cache.h"
 
@@ -232,6 +233,7 @@ int RunPlan(const Args& a, const sl::Settings& base, const sl::Data& data, sl::C
 
 int main(int argc, char** argv) {
   CLI::App app{"sceneloc-experiments: eta sweep and environment size on real data"};
+  app.set_version_flag("--version", std::string(sceneloc::Version()));
   Args a;
   AddOptions(&app, &a);
   CLI11_PARSE(app, argc, argv);

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "common/synthetic/tour_generator.h"
+#include "common/util/version.h"
 
 namespace {
 
@@ -23,6 +24,7 @@ int Fail(const std::string& message) {
 
 int main(int argc, char** argv) {
   CLI::App app{"sceneloc-gentour: write a synthetic training tour and test pass"};
+  app.set_version_flag("--version", std::string(sceneloc::Version()));
   std::string out_dir;
   sceneloc::TourOptions options;
   app.add_option("--out", out_dir, "output folder; gets tour/ and test/ sub-folders")->required();
@@ -41,6 +43,8 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
     // CLI11's own report spans several lines and exit codes; keep ours to one line and 1.

@@ -13,6 +13,7 @@
 #include "common/training/trainer.h"
 #include "common/util/progress_printer.h"
 #include "common/util/timer.h"
+#include "common/util/version.h"
 
 namespace {
 
@@ -105,6 +106,7 @@ int Upgrade(const std::string& in, const std::string& out) {
 
 int main(int argc, char** argv) {
   CLI::App app{"sceneloc-train: build a landmark map from a training tour"};
+  app.set_version_flag("--version", std::string(sceneloc::Version()));
   std::string tour_dir, out_path, config_path, spool_dir, upgrade_path;
   int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   int eta = -1;

@@ -17,6 +17,7 @@
 #include "common/util/mutex.h"
 #include "common/util/thread_pool.h"
 #include "common/util/timer.h"
+#include "common/util/version.h"
 
 namespace sceneloc {
 namespace {
@@ -239,7 +240,7 @@ Status FinishMap(const TrainOptions& options, ThreadPool* pool, TrainSummary* s,
   SummariseImages(*map, s);
   MapProvenance& p = map->provenance;
   p.created_utc = UtcNow();
-  p.tool_version = "0.1.0";
+  p.tool_version = std::string(Version());
   p.num_features = static_cast<uint32_t>(s->features);
   p.num_tracks = static_cast<uint32_t>(s->tracks);
   p.num_candidates = static_cast<uint32_t>(s->landmarks_before_selection);

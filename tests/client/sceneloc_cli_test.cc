@@ -119,11 +119,18 @@ TEST_F(ScenelocCliTest, ExtractThenLocaliseFeatures) {
   EXPECT_NE(run.output.find("cannot read a feature set"), std::string::npos) << run.output;
 }
 
-// maps lists the served map with its generation.
+// maps lists the served map with its generation and the version that trained it (the
+// test map is trained by this tree, so the client's own --version).
 TEST_F(ScenelocCliTest, MapsListsGenerations) {
   const RunResult run = Sceneloc("maps --server " + server_.endpoint);
   EXPECT_EQ(run.status, 0) << run.output;
   EXPECT_NE(run.output.find("synthetic\tgeneration 1"), std::string::npos) << run.output;
+  RunResult version = Sceneloc("--version");
+  ASSERT_EQ(version.status, 0) << version.output;
+  ASSERT_EQ(version.output.rfind("0.", 0), 0u) << version.output;
+  version.output.pop_back();  // the newline
+  EXPECT_NE(run.output.find("\ttrained by " + version.output + "\n"), std::string::npos)
+      << run.output;
 }
 
 // bench runs 2 clients for about a second against the real server and writes the JSON a

@@ -108,6 +108,12 @@ TEST(ServerProcessTest, SigtermDrainsInFlightRequestsAndExitsZero) {
   ASSERT_TRUE(server.WaitForOutput("serving", std::chrono::seconds(30))) << server.output();
   const std::string endpoint = LoggedEndpoint(server.output());
   ASSERT_FALSE(endpoint.empty()) << server.output();
+  // The log says which build is serving, as --version prints it.
+  ServerProcess version({"--version"});
+  EXPECT_EQ(version.Wait(std::chrono::seconds(20)), 0);
+  ASSERT_EQ(version.output().rfind("0.", 0), 0u) << version.output();
+  EXPECT_NE(server.output().find("sceneloc-server " + version.output()), std::string::npos)
+      << server.output();
 
   zmq::context_t context;
   zmq::socket_t socket(context, zmq::socket_type::dealer);

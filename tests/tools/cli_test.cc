@@ -64,14 +64,33 @@ class CliTest : public ::testing::Test {
 
 fs::path CliTest::dir_;
 
-// The happy path: train writes a loadable map and eval prints match rates for it.
+// --version: one line, the same from every tool of one build, the project's version first.
+std::string VersionOf(const std::string& binary) {
+  RunResult r = RunCommand(binary + " --version");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  EXPECT_EQ(r.output.rfind("0.", 0), 0u) << r.output;
+  if (!r.output.empty()) r.output.pop_back();
+  return r.output;
+}
+
+TEST_F(CliTest, EveryToolReportsItsVersion) {
+  const std::string version = VersionOf(SCENELOC_TRAIN_BIN);
+  EXPECT_EQ(VersionOf(SCENELOC_EVAL_BIN), version);
+  EXPECT_EQ(VersionOf(SCENELOC_ACCURACY_BIN), version);
+}
+
+// The happy path: train writes a loadable map that records the version that trained it,
+// and eval prints match rates for it.
 TEST_F(CliTest, TrainThenEval) {
   const std::string map = (dir_ / "ok.scnl").string();
   RunResult r = RunCommand(Train((dir_ / "tour").string(), map,
                                  "--config " SCENELOC_CONFIGS_DIR "/train.yaml --threads 2"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("landmarks kept"), std::string::npos);
-  ASSERT_TRUE(LoadMap(map).ok());
+  const auto trained = LoadMap(map);
+  ASSERT_TRUE(trained.ok());
+  EXPECT_EQ(trained->provenance.tool_version, VersionOf(SCENELOC_TRAIN_BIN));
   const std::string json = (dir_ / "eval.json").string();
   r = RunCommand(std::string(SCENELOC_EVAL_BIN) + " --map '" + map + "' --queries '" +
                  (dir_ / "test").string() + "' --baseline --json '" + json + "'");

@@ -190,13 +190,16 @@ class MapInfo:
     loaded_utc: str  # ISO 8601
     confidence_model: str  # "calibrated" or "paper": the confidence the map supports
     tolerance: int  # frames: what "correct" means for its confidence
+    trained_by: str  # the sceneloc version that trained it ("" from older servers)
+    trained_utc: str  # when it was trained, ISO 8601
     raw: pb.MapInfo = dataclasses.field(repr=False, compare=False)
 
     @classmethod
     def from_proto(cls, m: pb.MapInfo) -> MapInfo:
         return cls(
             MapVersion.from_proto(m.version), m.path, m.num_locations, m.num_landmarks,
-            m.memory_bytes, m.loaded_utc, m.confidence_model, m.tolerance, m,
+            m.memory_bytes, m.loaded_utc, m.confidence_model, m.tolerance, m.trained_by,
+            m.trained_utc, m,
         )
 
 
