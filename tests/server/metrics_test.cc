@@ -4,6 +4,10 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <regex>
+#include <set>
 
 #include "client/client.h"
 #include "server/broker.h"
@@ -72,6 +76,68 @@ TEST(OperatorEndpointTest, MetricsCountWhatTheServerDid) {
   EXPECT_TRUE(Contains(text, "sceneloc_map_load_failures_total 0"));
   EXPECT_TRUE(Contains(text, "sceneloc_workers 2"));
   EXPECT_TRUE(Contains(text, "sceneloc_queue_depth 0"));
+}
+
+// The Grafana dashboard (deploy/grafana) against what a real server exports: every metric
+// any panel, query or variable names is in /metrics, every label a panel groups by is on
+// that metric, and every panel has a query.
+TEST(OperatorEndpointTest, TheDashboardReadsExportedMetrics) {
+  test::TestServer s = test::StartTestServer(WithMetrics(test::TestServerOptions()));
+  ASSERT_NE(s.server, nullptr);
+  auto client = ClientOf(s.endpoint);
+  ASSERT_NE(client, nullptr);
+  ASSERT_TRUE(client->Localise(kTestMapName, test::TourJpegs()[3]).ok());  // every stage runs
+  const HttpResult metrics = Get(*s.server, "/metrics");
+  ASSERT_EQ(metrics.status, 200);
+  // Each exported series' name, with the labels it carries.
+  std::map<std::string, std::set<std::string>> exported;
+  const std::regex series(R"(^(sceneloc_[a-z_]+)(\{([^}]*)\})? )");
+  const std::regex label(R"(([a-z_]+)=")");
+  std::istringstream lines(metrics.body);
+  for (std::string line; std::getline(lines, line);) {
+    std::smatch m;
+    if (!std::regex_search(line, m, series)) continue;
+    std::set<std::string>& labels = exported[m[1]];
+    const std::string inside = m[3];
+    for (auto it = std::sregex_iterator(inside.begin(), inside.end(), label);
+         it != std::sregex_iterator(); ++it) {
+      labels.insert((*it)[1]);
+    }
+  }
+  std::ifstream file(SCENELOC_DEPLOY_DIR "/grafana/sceneloc-dashboard.json");
+  ASSERT_TRUE(file.good());
+  const nlohmann::json dashboard = nlohmann::json::parse(file);
+  ASSERT_GE(dashboard["panels"].size(), 10u);
+  const std::regex name(R"(sceneloc_[a-z_]+)");
+  const std::regex grouped(R"(by \(([a-z_, ]+)\) \(([^(]*\()*\s*(sceneloc_[a-z_]+))");
+  for (const nlohmann::json& panel : dashboard["panels"]) {
+    const std::string title = panel["title"];
+    ASSERT_FALSE(panel["targets"].empty()) << title;
+    for (const nlohmann::json& target : panel["targets"]) {
+      const std::string expr = target["expr"];
+      int named = 0;
+      for (auto it = std::sregex_iterator(expr.begin(), expr.end(), name);
+           it != std::sregex_iterator(); ++it, ++named) {
+        EXPECT_TRUE(exported.count(it->str())) << title << ": " << it->str() << " in " << expr;
+      }
+      EXPECT_GT(named, 0) << title << ": " << expr;
+      std::smatch by;
+      if (std::regex_search(expr, by, grouped) && exported.count(by[3])) {
+        std::istringstream names(by[1]);
+        for (std::string l; std::getline(names, l, ',');) {
+          l.erase(0, l.find_first_not_of(' '));
+          if (l == "le") continue;
+          EXPECT_TRUE(exported[by[3]].count(l)) << title << ": " << by[3] << " has no " << l;
+        }
+      }
+    }
+  }
+  // The variables' queries too.
+  const std::string text = dashboard["templating"].dump();
+  for (auto it = std::sregex_iterator(text.begin(), text.end(), name); it != std::sregex_iterator();
+       ++it) {
+    EXPECT_TRUE(exported.count(it->str())) << it->str();
+  }
 }
 
 TEST(OperatorEndpointTest, SessionsAreCounted) {
