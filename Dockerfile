@@ -1,5 +1,5 @@
-# sceneloc-server in a container: a build stage with the -dev packages, and a slim runtime
-# stage with only the shared libraries the binaries link.
+# sceneloc-server in a container: a build stage that makes the Debian package
+# (scripts/package.sh), and a slim runtime stage that installs it.
 #
 #   docker build -t sceneloc .
 #   docker run -d --name sceneloc -p 5555:5555 -v "$PWD/maps:/maps" sceneloc
@@ -7,8 +7,10 @@
 #   docker kill -s HUP sceneloc                                # reload every map in /maps
 #
 # The maps folder is a volume: every *.scnl in it is served under its file stem. The image
-# also holds the client (`sceneloc`), which the health check uses, and the small tools
-# `sceneloc-train` and `sceneloc-gentour`, so a map can be made inside the container.
+# also holds the client (`sceneloc`), which the health check uses, and the tools
+# `sceneloc-train`, `sceneloc-gentour` and `sceneloc-eval`, so a map can be made inside the
+# container. The package's own check runs in the image as root:
+#   ../shared/tools/container-check -- sh /usr/share/sceneloc/check-package.sh
 
 # ---------------------------------------------------------------- build
 FROM debian:bookworm AS build
@@ -17,29 +19,23 @@ WORKDIR /src
 COPY scripts/setup.sh scripts/setup.sh
 RUN bash scripts/setup.sh && rm -rf /var/lib/apt/lists/*
 COPY . .
-# Portable binaries (no AVX2), without tests and benchmarks.
-RUN cmake -S . -B /build -G Ninja -DCMAKE_BUILD_TYPE=Release -DSCENELOC_AVX2=OFF \
-      -DSCENELOC_BUILD_TESTS=OFF -DSCENELOC_BUILD_BENCHMARKS=OFF \
- && cmake --build /build -j"$(nproc)" \
-      --target sceneloc-server sceneloc-broker sceneloc sceneloc-train sceneloc-gentour \
- && strip /build/server/sceneloc-server /build/server/sceneloc-broker /build/client/sceneloc \
-      /build/tools/sceneloc-train /build/tools/sceneloc-gentour
+# The Debian package (scripts/package.sh: portable binaries without AVX2, no tests or
+# benchmarks); SCENELOC_VERSION names the build where the context has no .git.
+ARG SCENELOC_VERSION=""
+RUN SCENELOC_VERSION="$SCENELOC_VERSION" bash scripts/package.sh /out
 
 # ---------------------------------------------------------------- runtime
 FROM debian:bookworm-slim
-# Exactly the libraries the five binaries link (readelf -d ... | grep NEEDED), Debian 12 names.
-RUN apt-get update -qq \
- && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
-      libopencv-core406 libopencv-imgproc406 libopencv-imgcodecs406 \
-      libopencv-features2d406 libopencv-calib3d406 \
-      libprotobuf32 libzmq5 libspdlog1.10 libfmt9 libyaml-cpp0.7 \
-      libprometheus-cpp-core1.0 libcivetweb1 \
- && rm -rf /var/lib/apt/lists/*
-COPY --from=build /build/server/sceneloc-server /build/server/sceneloc-broker /build/client/sceneloc \
-     /build/tools/sceneloc-train /build/tools/sceneloc-gentour /usr/local/bin/
-COPY configs/ /etc/sceneloc/
+# The image's user first (uid 10001, as volumes and Kubernetes manifests expect); the
+# package keeps a user it finds. apt installs the package with exactly the shared
+# libraries its binaries link (dpkg-shlibdeps), and the package's maps folder, settings in
+# /etc/sceneloc and systemd unit come with it (the unit is unused in a container).
 RUN useradd --uid 10001 --user-group --no-create-home --home-dir /nonexistent \
-      --shell /usr/sbin/nologin sceneloc \
+      --shell /usr/sbin/nologin sceneloc
+COPY --from=build /out/sceneloc_*.deb /tmp/
+RUN apt-get update -qq \
+ && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends /tmp/sceneloc_*.deb \
+ && rm -rf /var/lib/apt/lists/* /tmp/sceneloc_*.deb \
  && mkdir -p /maps && chown sceneloc:sceneloc /maps
 VOLUME /maps
 EXPOSE 5555
