@@ -19,6 +19,8 @@ packages=(
   # The Python client (client/python) and its tests, on Debian's interpreter.
   python3-zmq python3-protobuf python3-numpy python3-pytest python3-venv python3-pip
   python3-setuptools python3-wheel
+  # The Debian package (scripts/package.sh): CPack reads the binaries' libraries with these.
+  file dpkg-dev
 )
 for arg in "$@"; do
   case $arg in
