@@ -251,7 +251,7 @@ StatusOr<LocaliseResult> LocaliseInFrame(const FeatureSet& features, const Map& 
   LocaliseResult result;
   const bool coarse = UsesPlaceSearch(map, options);
   PlaceSearch search;
-  if (coarse) search = SearchPlaces(features, map, options);
+  if (coarse) search = SearchPlaces(features, map, options, pool);
   const LandmarkScope scope =
       coarse ? LandmarkScope::Of(map, search.locations) : LandmarkScope::Whole(map);
   result.timings.place_ms = total.Milliseconds();

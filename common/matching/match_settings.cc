@@ -81,6 +81,8 @@ SettingTable MatchSettings(MatchOptions* o) {
           .Range(0, 1000)
           .Unit("locations")
           .Help("each picked location brings this many either side"),
+      Setting("matching", "place_distinct", &o->place_distinct)
+          .Help("pass over picks already among the candidates for the next best"),
   };
   for (SettingField& f : SequenceSettings(&o->sequence)) t.push_back(std::move(f));
   return t;

@@ -33,10 +33,30 @@ bool UsesPlaceSearch(const Map& map, const MatchOptions& options) {
   return options.use_place_index && map.has_place_index();
 }
 
-std::vector<float> WordScores(const FeatureSet& features, const Map& map) {
+std::vector<float> WordScores(const FeatureSet& features, const Map& map, ThreadPool* pool) {
   std::vector<float> score(static_cast<size_t>(map.num_images()), 0.0f);
   if (features.size() == 0) return score;
-  std::vector<uint32_t> words = AssignWords(map.place_index.vocabulary, features.local);
+  // The features' words in blocks of kRowsPerBlock rows, the blocks spread over the pool;
+  // a row's words do not depend on the other rows, and the blocks are the same whatever the
+  // pool, so the words are too.
+  constexpr size_t kRowsPerBlock = 256;
+  const size_t rows = static_cast<size_t>(features.local.rows());
+  std::vector<uint32_t> words(rows);
+  const auto assign = [&](size_t first_block, size_t end_block) {
+    for (size_t b = first_block; b < end_block; ++b) {
+      const size_t begin = b * kRowsPerBlock, count = std::min(kRowsPerBlock, rows - begin);
+      const DescriptorMatrix block = features.local.middleRows(static_cast<Eigen::Index>(begin),
+                                                               static_cast<Eigen::Index>(count));
+      const std::vector<uint32_t> part = AssignWords(map.place_index.vocabulary, block);
+      std::copy(part.begin(), part.end(), words.begin() + static_cast<std::ptrdiff_t>(begin));
+    }
+  };
+  const size_t blocks = (rows + kRowsPerBlock - 1) / kRowsPerBlock;
+  if (pool != nullptr) {
+    pool->ParallelFor(blocks, 1, assign);
+  } else {
+    assign(0, blocks);
+  }
   std::sort(words.begin(), words.end());
   const InvertedFile& file = map.inverted_file;
   for (size_t i = 0; i < words.size();) {
@@ -52,7 +72,8 @@ std::vector<float> WordScores(const FeatureSet& features, const Map& map) {
   return score;
 }
 
-std::vector<float> ApproximateHolisticDistances(const FeatureSet& features, const Map& map) {
+std::vector<float> ApproximateHolisticDistances(const FeatureSet& features, const Map& map,
+                                                ThreadPool* pool) {
   const HolisticProjection& h = map.place_index.holistic;
   if (h.empty() || features.holistic.empty()) return {};
   const HolisticGrid& grid = map.holistic_grid;
@@ -86,47 +107,82 @@ std::vector<float> ApproximateHolisticDistances(const FeatureSet& features, cons
   }
   // |q - t|^2 ~ |z - y|^2 + both residuals: the parts the axes leave out taken as orthogonal.
   std::vector<float> distance(n);
-  for (size_t l = 0; l < n; ++l) {
-    float best = std::numeric_limits<float>::max();
-    for (int k = 0; k < shifts; ++k) {
-      const float* y = h.projected.data() + (l * shifts + k) * dims;
-      const float* q = z.data() + k * dims;
-      float d2 = rest[static_cast<size_t>(k)] + h.residual[l * shifts + k];
-      for (int a = 0; a < dims; ++a) d2 += (q[a] - y[a]) * (q[a] - y[a]);
-      best = std::min(best, d2 / cells_per_shift[static_cast<size_t>(k)]);
+  const auto measure = [&](size_t begin, size_t end) {
+    for (size_t l = begin; l < end; ++l) {
+      float best = std::numeric_limits<float>::max();
+      for (int k = 0; k < shifts; ++k) {
+        const float* y = h.projected.data() + (l * shifts + k) * dims;
+        const float* q = z.data() + k * dims;
+        float d2 = rest[static_cast<size_t>(k)] + h.residual[l * shifts + k];
+        for (int a = 0; a < dims; ++a) d2 += (q[a] - y[a]) * (q[a] - y[a]);
+        best = std::min(best, d2 / cells_per_shift[static_cast<size_t>(k)]);
+      }
+      distance[l] = best;
     }
-    distance[l] = best;
+  };
+  constexpr size_t kLocationsPerTask = 2048;
+  if (pool != nullptr) {
+    pool->ParallelFor(n, kLocationsPerTask, measure);
+  } else {
+    measure(0, n);
   }
   return distance;
 }
 
-PlaceSearch SearchPlaces(const FeatureSet& features, const Map& map, const MatchOptions& options) {
+PlaceSearch SearchPlaces(const FeatureSet& features, const Map& map, const MatchOptions& options,
+                         ThreadPool* pool) {
   PlaceSearch search;
   const int n = map.num_images();
+  const int expand = options.place_expand;
   std::vector<bool> chosen(static_cast<size_t>(n), false);
-  const auto choose = [&](const std::vector<int>& tops) {
-    for (int l : tops) {
-      for (int m = std::max(0, l - options.place_expand);
-           m <= std::min(n - 1, l + options.place_expand); ++m) {
-        chosen[static_cast<size_t>(m)] = true;
-      }
+  int chosen_count = 0;
+  const auto choose = [&](int l) {
+    for (int m = std::max(0, l - expand); m <= std::min(n - 1, l + expand); ++m) {
+      chosen_count += !chosen[static_cast<size_t>(m)];
+      chosen[static_cast<size_t>(m)] = true;
     }
   };
-  choose(Top(WordScores(features, map), options.place_word_top, /*highest=*/true));
-  search.holistic = ApproximateHolisticDistances(features, map);
+  // The `count` best of `value` as picks; with place_distinct, a location already chosen is
+  // passed over. Each pick chooses at most 2 * expand others, so the best
+  // count * (2 * expand + 1) beyond those already chosen hold every pick. A location whose
+  // value is the worst a float holds (not measured) is never picked.
+  const auto pick = [&](const std::vector<float>& value, int count, bool highest) {
+    const float unmeasured =
+        highest ? std::numeric_limits<float>::lowest() : std::numeric_limits<float>::max();
+    if (!options.place_distinct) {
+      for (int l : Top(value, count, highest)) {
+        if (value[l] != unmeasured) choose(l);
+      }
+      return;
+    }
+    std::vector<int> best = Top(value, count * (2 * expand + 1) + chosen_count, highest);
+    std::sort(best.begin(), best.end(), [&](int a, int b) {
+      if (value[a] != value[b]) return highest ? value[a] > value[b] : value[a] < value[b];
+      return a < b;
+    });
+    int picked = 0;
+    for (int l : best) {
+      if (picked == count || value[l] == unmeasured) break;
+      if (chosen[static_cast<size_t>(l)]) continue;
+      choose(l);
+      ++picked;
+    }
+  };
+  pick(WordScores(features, map, pool), options.place_word_top, /*highest=*/true);
+  search.holistic = ApproximateHolisticDistances(features, map, pool);
   if (!search.holistic.empty() && options.place_holistic_top > 0) {
     // The approximation ranks the nearest only roughly: its kRefine nearest are measured
     // exactly, and the nearest of those are the candidates.
     const std::vector<int> shortlist =
         Top(search.holistic, std::max(kRefine, options.place_holistic_top), /*highest=*/false);
     const std::vector<float> exact = HolisticDistancesTo(
-        features, map, shortlist, map.options.extractor.holistic.max_shift, nullptr);
+        features, map, shortlist, map.options.extractor.holistic.max_shift, pool);
     std::vector<float> refined(search.holistic.size(), std::numeric_limits<float>::max());
     for (size_t i = 0; i < shortlist.size(); ++i) {
       search.holistic[shortlist[i]] = exact[i];
       refined[shortlist[i]] = exact[i];
     }
-    choose(Top(refined, options.place_holistic_top, /*highest=*/false));
+    pick(refined, options.place_holistic_top, /*highest=*/false);
   }
   for (int l = 0; l < n; ++l) {
     if (chosen[static_cast<size_t>(l)]) search.locations.push_back(l);

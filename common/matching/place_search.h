@@ -6,9 +6,11 @@
 // Candidates come from both kinds of evidence sceneloc fuses: the place_word_top locations
 // whose landmarks share most of the query's visual words (tf-idf votes through the inverted
 // file) and the place_holistic_top locations the query looks most like as a whole (the
-// approximate holistic distance shortlists 128, measured exactly); each with place_expand locations
-// either side, so the answer's neighbours, whose landmarks S_N and the confidence read, are scored
-// too.
+// approximate holistic distance shortlists 128, measured exactly); each with place_expand
+// locations either side, so the answer's neighbours, whose landmarks S_N and the confidence
+// read, are scored too. With place_distinct (the default) the picks are distinct places: a
+// location already among the candidates is passed over for the next best, so neighbouring
+// frames that share the query's words do not spend the picks on one stretch of the route.
 //
 // Thread-safe: a function of its arguments.
 #pragma once
@@ -18,6 +20,7 @@
 #include "common/features/feature_set.h"
 #include "common/map/map.h"
 #include "common/matching/localiser.h"
+#include "common/util/thread_pool.h"
 
 namespace sceneloc {
 
@@ -32,15 +35,19 @@ struct PlaceSearch {
 // and options.use_place_index.
 bool UsesPlaceSearch(const Map& map, const MatchOptions& options);
 
-// The candidate locations of `features` (in the map's frame). REQUIRES: the map has a place
-// index; the query's holistic grid, if any, is the map's.
-PlaceSearch SearchPlaces(const FeatureSet& features, const Map& map, const MatchOptions& options);
+// The candidate locations of `features` (in the map's frame), the word assignment and the
+// approximate holistic distances spread over `pool` (may be null). REQUIRES: the map has a
+// place index; the query's holistic grid, if any, is the map's.
+PlaceSearch SearchPlaces(const FeatureSet& features, const Map& map, const MatchOptions& options,
+                         ThreadPool* pool = nullptr);
 
 // Word votes alone: every location's tf-idf similarity to the query's words (exposed for
 // tests and evaluation).
-std::vector<float> WordScores(const FeatureSet& features, const Map& map);
+std::vector<float> WordScores(const FeatureSet& features, const Map& map,
+                              ThreadPool* pool = nullptr);
 
 // The approximate holistic distances alone (exposed for tests and evaluation).
-std::vector<float> ApproximateHolisticDistances(const FeatureSet& features, const Map& map);
+std::vector<float> ApproximateHolisticDistances(const FeatureSet& features, const Map& map,
+                                                ThreadPool* pool = nullptr);
 
 }  // namespace sceneloc

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <numeric>
 
 #include "common/map/map_io.h"
 #include "common/matching/descriptor_similarity.h"
@@ -161,6 +162,66 @@ TEST_F(PlaceIndexTest, ANarrowScopeAnswersAsTheWholeMap) {
   }
   EXPECT_LT(scored, kLocations * kLocations / 2) << "the scope was most of the map";
   EXPECT_GE(same, kLocations * 9 / 10);
+}
+
+// Distinct picks: the word picks are, in order of their score, the best locations not
+// already among the candidates, so every pick brings a stretch of the route not yet scored;
+// without them the best place_word_top, however close together.
+TEST_F(PlaceIndexTest, DistinctPicksAreDistinctPlaces) {
+  MatchOptions options;
+  options.place_word_top = 4;
+  options.place_holistic_top = 0;
+  options.place_expand = 2;
+  int wider = 0;
+  for (const FeatureSet& q : *queries_) {
+    const std::vector<float> score = WordScores(q, *map_);
+    std::vector<int> order(score.size());
+    std::iota(order.begin(), order.end(), 0);
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return score[a] > score[b]; });
+    // The rule, written out: walk the locations best first, pick one unless it is chosen.
+    std::vector<bool> chosen(score.size(), false);
+    std::vector<bool> plain(score.size(), false);
+    for (int i = 0, picked = 0; i < kLocations && picked < options.place_word_top; ++i) {
+      const int l = order[static_cast<size_t>(i)];
+      for (int m = std::max(0, l - 2); m <= std::min(kLocations - 1, l + 2); ++m) {
+        if (i < options.place_word_top) plain[static_cast<size_t>(m)] = true;
+      }
+      if (chosen[static_cast<size_t>(l)]) continue;
+      for (int m = std::max(0, l - 2); m <= std::min(kLocations - 1, l + 2); ++m) {
+        chosen[static_cast<size_t>(m)] = true;
+      }
+      ++picked;
+    }
+    std::vector<int> expected, expected_plain;
+    for (int l = 0; l < kLocations; ++l) {
+      if (chosen[static_cast<size_t>(l)]) expected.push_back(l);
+      if (plain[static_cast<size_t>(l)]) expected_plain.push_back(l);
+    }
+    options.place_distinct = true;
+    EXPECT_EQ(SearchPlaces(q, *map_, options).locations, expected);
+    options.place_distinct = false;
+    EXPECT_EQ(SearchPlaces(q, *map_, options).locations, expected_plain);
+    wider += expected.size() > expected_plain.size();
+  }
+  EXPECT_GT(wider, 0) << "no query's best word locations were close together";
+}
+
+// The coarse stage spread over a pool finds what it finds alone.
+TEST_F(PlaceIndexTest, APoolChangesNothing) {
+  ThreadPool pool(3);
+  MatchOptions options;
+  options.place_word_top = 5;
+  options.place_holistic_top = 5;
+  options.place_expand = 1;
+  for (const FeatureSet& q : *queries_) {
+    EXPECT_EQ(WordScores(q, *map_, &pool), WordScores(q, *map_));
+    EXPECT_EQ(ApproximateHolisticDistances(q, *map_, &pool),
+              ApproximateHolisticDistances(q, *map_));
+    const PlaceSearch alone = SearchPlaces(q, *map_, options);
+    const PlaceSearch spread = SearchPlaces(q, *map_, options, &pool);
+    EXPECT_EQ(spread.locations, alone.locations);
+    EXPECT_EQ(spread.holistic, alone.holistic);
+  }
 }
 
 // A scope's matches are the whole map's matches of its landmarks, numbered by position.
