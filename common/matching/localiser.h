@@ -122,11 +122,11 @@ struct MatchOptions {
   // place_holistic_top by approximate holistic distance, each with place_expand locations
   // either side. false scores every location of every map (the paper). Measured:
   // docs/results.md "Maps that grow" and "Distinct places" (on a 20,000-location map words
-  // find the right place more often than the holistic distance: 40 + 8 picks did best of
-  // 24 + 24, 32 + 16, 36 + 12, 40 + 8 and 48 + 0, for the same number scored).
+  // find the right place more often than the holistic distance: 28 + 4 picks score about as
+  // many locations as 24 + 24 did before picks were distinct, and find the place more often).
   bool use_place_index = true;
-  int place_word_top = 40;
-  int place_holistic_top = 8;
+  int place_word_top = 28;
+  int place_holistic_top = 4;
   int place_expand = 3;
   // Picks are distinct places: a location already among the candidates (within
   // place_expand of an earlier pick, by words or by holistic distance) is passed over for
