@@ -1,4 +1,4 @@
-// hostile_server: issue 8's attacks on a real sceneloc-server child process, one after
+// hostile_server: the hostile-input attacks on a real sceneloc-server child process, one after
 // another, while a well-behaved client localises one JPEG every half second throughout.
 // For each attack it prints what the hostile requests got, the well-behaved client's worst
 // latency during the attack beside its median at rest, the server's peak resident memory
@@ -46,7 +46,7 @@ struct Outcome {
   std::string hostile;  // what the hostile requests got
 };
 
-// Runs issue 8's attacks one at a time against a server while the well-behaved client
+// Runs the attacks one at a time against a server while the well-behaved client
 // keeps localising, and prints a line for each: what the hostile requests got, the good
 // client's worst latency, the server's peak resident memory, whether it stayed up.
 class Attacker {
@@ -294,7 +294,7 @@ int Run(const std::string& server_bin, const std::string& map_path, const std::s
 }  // namespace sceneloc
 
 int main(int argc, char** argv) {
-  CLI::App app{"hostile_server: issue 8's attacks on a sceneloc-server child process"};
+  CLI::App app{"hostile_server: hostile-input attacks on a sceneloc-server child process"};
   std::string server_bin, map, query;
   int threads = 2;
   app.add_option("--server-bin", server_bin, "the sceneloc-server executable")->required();

@@ -3,11 +3,11 @@
 //
 //   floor      cv::SIFT detectAndCompute on the grey working frame: one pyramid, the local
 //              descriptors only, one thread (what no extractor of ours can beat alone)
-//   decode     JPEG to the grey working frame: in full colour, then grey and resized (as
-//              before issue 10), and straight to grey at the reduced DCT size (DecodeGray)
+//   decode     JPEG to the grey working frame: in full colour, then grey and resized (the
+//              old path), and straight to grey at the reduced DCT size (DecodeGray)
 //   extract    ours (both descriptors) on the working frame, one thread and with OpenCV's
 //              loops on a 2-thread pool (opencv_threads.h); and the two-pass extraction
-//              before issue 10 (detect, then compute over 2N keypoints) for comparison
+//              (detect, then compute over 2N keypoints) for comparison
 //   localise   features to a ranked answer, 1 and 2 threads
 //   end-to-end decode + extract + localise in-process, one thread and on the pool
 //
@@ -90,7 +90,7 @@ Input Real(const std::string& map_path, const std::string& queries) {
   return in;
 }
 
-// The extraction before issue 10: detect, then compute local and context descriptors of
+// The two-pass extraction: detect, then compute local and context descriptors of
 // the 2N keypoints in one call (a second pyramid, the context windows on the keypoint's
 // own octave).
 void TwoPassExtract(const cv::Mat& gray, const ExtractorOptions& o) {

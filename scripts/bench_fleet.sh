@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The fleet's figures (docs/operations.md "A fleet", issue 12), on loopback in one run, against the
+# The fleet's figures (docs/operations.md "A fleet"), on loopback in one run, against the
 # 200-location Gardens Point map, in alternating rounds so that drift hits every setup
 # alike:
 #   direct     one sceneloc-server --threads 1 bound directly

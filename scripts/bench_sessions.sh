@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# What sessions cost in a running server (docs/sessions.md, issue 9): 1,000 live
+# What sessions cost in a running server (docs/sessions.md): 1,000 live
 # sessions on the 200-location Gardens Point map, each opened by one feature-set frame, then
 # the server's own count of them and the memory they hold (stats), beside its resident
 # memory before and after; and one client's latency with and without a session, in

@@ -68,7 +68,7 @@ class Query:
         self.scores = np.asarray(e["scores"], dtype=float)
         self.candidates = [c for c in e.get("candidates", []) if 0 <= c[0] < len(self.scores)]
         self.in_map = e["in_map"]
-        # the camera the query was read with and its doubt (absent before 2026-12-05: 0, 0)
+        # the camera the query was read with and its doubt (absent in older runs: 0, 0)
         self.camera, self.doubt = e.get("camera", (0.0, 0.0))
         self.predicted, self.reported = q["sceneloc"]
         self.settings = settings

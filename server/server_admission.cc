@@ -88,7 +88,7 @@ void ZmqServer::Released(const std::string& connection) {
 // queue of requests will not get; its time is scaled by threads / busy workers, so the
 // estimate errs on the side of refusing (measured: without it, a burst after a quiet
 // spell was admitted on the lone time and a well-behaved client was then refused
-// OVERLOADED for a second; docs/results.md, issue 10).
+// OVERLOADED for a second; docs/results.md).
 void ZmqServer::RecordServiceTime(double wall_ms, int busy_workers) {
   const double ms = wall_ms * options_.threads / std::max(1, busy_workers);
   double old = service_ms_.load(std::memory_order_relaxed);

@@ -118,12 +118,12 @@ int main(int argc, char** argv) {
   }
   CLI11_PARSE(app, argc, argv);
   // Per-request buffers (SIFT's pyramid, scoring blocks) are reused from the heap, and
-  // only allocations of 32 MiB or more are mapped and given back (malloc_policy.h). Before
-  // issue 10 every buffer of 1 MiB or more was mapped, to keep 8 workers decoding 4096x4096
-  // JPEGs at 235 MB resident rather than 420 MB: it made each request fault in its pages
-  // afresh (plain SIFT 75-110 ms instead of 20 on the 2-core VM). A JPEG is now decoded at
-  // the reduced size that covers the map's frame (1/8 of a 4096x4096 one), so those big
-  // buffers no longer arise; docs/results.md has both measurements.
+  // only allocations of 32 MiB or more are mapped and given back (malloc_policy.h). Mapping
+  // every buffer of 1 MiB or more instead (which keeps 8 workers decoding 4096x4096 JPEGs
+  // at 235 MB resident rather than 420 MB) makes each request fault in its pages afresh
+  // (plain SIFT 75-110 ms instead of 20 on the 2-core VM); and a JPEG is decoded at the
+  // reduced size that covers the map's frame (1/8 of a 4096x4096 one), so those big
+  // buffers do not arise. docs/results.md has both measurements.
   sceneloc::UseServingMallocPolicy();
   // Until the engine pool exists, OpenCV runs its loops on the caller: its own threads
   // (TBB) beside the server's workers would oversubscribe the cores.

@@ -1,6 +1,6 @@
 // A session's filter state as bytes (proto SessionAnswer.state, LocaliseRequest.session_state):
 // what lets the next frame of a session be answered by another server process (a fleet
-// behind one address, issue 12) or by this one after it forgot the session (restart,
+// behind one address) or by this one after it forgot the session (restart,
 // eviction, expiry). The client sends back the state of its last reply; sceneloc::Client
 // does it by itself.
 //
@@ -12,8 +12,8 @@
 // support, then the SequenceState: N + 1 float32 location, K uint32 tracked, (K + 1) S
 // float32 speeds, B uint16 camera counts; uint32 CRC-32 of everything before it.
 // 44 + 4 (N + 1 + K + (K + 1) S) + 2 B bytes: 5,652 at 200 locations, 17 speeds, 64 tracked
-// and the camera measured; 44,852 at 10,000. A "SLS5" token (the same without the support,
-// 2026-12-04) continues with a fresh support. A well-formed token of an earlier format
+// and the camera measured; 44,852 at 10,000. A "SLS5" token (the same without the support)
+// continues with a fresh support. A well-formed token of an earlier format
 // ("SLS1": N + 1 values; "SLS2": 2N + 1, the direction of travel; "SLS3": S N + 1, every
 // location's speeds; "SLS4": no camera) or of other filter settings (another S) starts the
 // session again, as another map's does; one with another number of tracked locations

@@ -107,7 +107,7 @@ int TopContextOctave(int w, int h) {
 // paper asks for), read off a higher octave of the pyramid. A SIFT keypoint's size doubles
 // per octave, so one octave up (at the paper's scale 2) the window covers the same number
 // of pixels as the local one: a quarter of what the same window costs on k's own octave,
-// where the extractor before issue 10 read it. Of the octave's images, the least blurred
+// where a two-pass extractor would read it. Of the octave's images, the least blurred
 // (layer 0: the blur of k's octave's top layer, halved in resolution) keeps the blur
 // closest to that old descriptor's; the layer of k's own blur one octave up measured
 // slightly worse (docs/results.md, "One pass of extraction"). Octaves up = floor(log2

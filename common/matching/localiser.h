@@ -67,7 +67,7 @@ struct MatchOptions {
   // RANSAC iterations per verified candidate at most (its cost grows linearly with this).
   int verify_ransac_iterations = 200;
   // The fundamental-matrix search (VerifyEstimator in verification.h): "usac" (RANSAC with
-  // SPRT, the default) or "ransac" (OpenCV's classic FM_RANSAC, as before 2026-12-03).
+  // SPRT, the default) or "ransac" (OpenCV's classic FM_RANSAC).
   std::string verify_estimator = "usac";
   // Orientation check of verification (verification.h): correspondences whose keypoint
   // orientations differ by more than this many degrees are dropped (0 = none).

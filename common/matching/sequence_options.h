@@ -32,7 +32,7 @@ struct SequenceOptions {
   // A frame's fused evidence (LocationScores) is read as a log-likelihood at this
   // temperature: its own setting, not the map's confidence temperature, which is fitted for
   // single frames. What matters is evidence_weight / evidence_temperature (0.45 / 0.28 keeps
-  // the 0.5 / 0.31 the filter was measured with); until 2026-12-04 the filter read the map's.
+  // the 0.5 / 0.31 the filter was measured with).
   double evidence_temperature = 0.28;
   // The exponent on each frame's likelihood (0, 1]: 1 treats frames as independent.
   double evidence_weight = 0.45;
@@ -63,7 +63,7 @@ struct SequenceOptions {
   // then support x the belief within the tolerance + (1 - support) x the frame's own
   // single-frame probability there, that one at most the belief: the support only ever
   // lowers what the belief says.
-  // support_weight 0 = off: the belief alone, as before 2026-12-04. Measured:
+  // support_weight 0 = off: the belief alone. Measured:
   // docs/results.md "Sessions: a confidence that checks the track".
   double support_weight = 0.25;
   double support_switch = 0.05;

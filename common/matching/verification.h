@@ -32,7 +32,7 @@ enum class VerifyEstimator {
   // ninth of kRansac's time; match rates and PR-AUC the same within RANSAC's own sampling
   // noise, recall at 100% precision lower on average (docs/results.md, "Verification").
   kUsac,
-  // OpenCV's classic FM_RANSAC (cv::findFundamentalMat), used before 2026-12-03.
+  // OpenCV's classic FM_RANSAC (cv::findFundamentalMat).
   kRansac,
 };
 

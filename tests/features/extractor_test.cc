@@ -104,7 +104,7 @@ float Cosine(const float* a, const float* b) {
 }
 
 // The keypoints and local descriptors are exactly plain SIFT's (detectAndCompute on the
-// working frame, the floor of issue 10): one pyramid, nothing changed in meaning. With the
+// working frame, the latency floor): one pyramid, nothing changed in meaning. With the
 // default 3 scale levels per octave and with another (a map stores which).
 TEST(ExtractorTest, LocalDescriptorsArePlainSift) {
   const Frame frame = TourFrame();

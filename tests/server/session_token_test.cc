@@ -56,7 +56,7 @@ TEST(SessionTokenTest, RoundTrip) {
   }
 }
 
-// A "SLS5" token (before the track's support, 2026-12-04: the same bytes without it) that a
+// A "SLS5" token (the format before the track's support: the same bytes without it) that a
 // client kept across the server's upgrade continues, with a fresh support; damaged, it is
 // refused.
 TEST(SessionTokenTest, TokensWithoutSupportContinue) {

@@ -14,7 +14,7 @@
 namespace sceneloc {
 namespace {
 
-// 4: context descriptors read one octave up (issue 10; 3 was a variant of it).
+// 4: context descriptors read one octave up (3 was a variant of it).
 // 5: the entry holds its whole key and ends with a CRC-32 of everything before it.
 constexpr uint32_t kCacheVersion = 5;
 
