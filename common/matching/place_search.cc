@@ -12,8 +12,10 @@ namespace {
 // Locations the approximate holistic distance shortlists for an exact one.
 constexpr int kRefine = 128;
 
-// The `count` locations of highest `value` (lowest index among equals), in no order.
-std::vector<int> Top(const std::vector<float>& value, int count, bool highest) {
+// The `count` locations of highest `value` (lowest index among equals), best first if
+// `ordered`, else in no order.
+std::vector<int> Top(const std::vector<float>& value, int count, bool highest,
+                     bool ordered = false) {
   std::vector<int> order(value.size());
   std::iota(order.begin(), order.end(), 0);
   const size_t k = std::min(order.size(), static_cast<size_t>(std::max(0, count)));
@@ -24,6 +26,7 @@ std::vector<int> Top(const std::vector<float>& value, int count, bool highest) {
   std::nth_element(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(k), order.end(),
                    better);
   order.resize(k);
+  if (ordered) std::sort(order.begin(), order.end(), better);
   return order;
 }
 
@@ -155,11 +158,8 @@ PlaceSearch SearchPlaces(const FeatureSet& features, const Map& map, const Match
       }
       return;
     }
-    std::vector<int> best = Top(value, count * (2 * expand + 1) + chosen_count, highest);
-    std::sort(best.begin(), best.end(), [&](int a, int b) {
-      if (value[a] != value[b]) return highest ? value[a] > value[b] : value[a] < value[b];
-      return a < b;
-    });
+    const std::vector<int> best =
+        Top(value, count * (2 * expand + 1) + chosen_count, highest, /*ordered=*/true);
     int picked = 0;
     for (int l : best) {
       if (picked == count || value[l] == unmeasured) break;
