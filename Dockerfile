@@ -30,12 +30,20 @@ FROM debian:bookworm-slim
 # package keeps a user it finds. apt installs the package with exactly the shared
 # libraries its binaries link (dpkg-shlibdeps), and the package's maps folder, settings in
 # /etc/sceneloc and systemd unit come with it (the unit is unused in a container).
+#
+# OpenCV's core links libGLX.so.0, whose package depends on Mesa's GLX library and through it
+# on Mesa's drivers, LLVM, Z3 and ICU (about 200 MB); sceneloc never makes a GL context, and
+# libglvnd loads a GLX vendor only when one is made. An empty package that provides Mesa's
+# GLX library (deploy/docker/headless-glx.control) is installed first, so apt leaves them out.
 RUN useradd --uid 10001 --user-group --no-create-home --home-dir /nonexistent \
       --shell /usr/sbin/nologin sceneloc
+COPY deploy/docker/headless-glx.control /tmp/headless-glx/DEBIAN/control
 COPY --from=build /out/sceneloc_*.deb /tmp/
-RUN apt-get update -qq \
+RUN dpkg-deb --build /tmp/headless-glx /tmp/headless-glx.deb >/dev/null \
+ && dpkg -i /tmp/headless-glx.deb \
+ && apt-get update -qq \
  && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends /tmp/sceneloc_*.deb \
- && rm -rf /var/lib/apt/lists/* /tmp/sceneloc_*.deb \
+ && rm -rf /var/lib/apt/lists/* /tmp/sceneloc_*.deb /tmp/headless-glx* \
  && mkdir -p /maps && chown sceneloc:sceneloc /maps
 VOLUME /maps
 EXPOSE 5555

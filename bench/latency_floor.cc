@@ -4,7 +4,8 @@
 //   floor      cv::SIFT detectAndCompute on the grey working frame: one pyramid, the local
 //              descriptors only, one thread (what no extractor of ours can beat alone)
 //   decode     JPEG to the grey working frame: in full colour, then grey and resized (the
-//              old path), and straight to grey at the reduced DCT size (DecodeGray)
+//              old path), and straight to grey at the reduced DCT size, by imgcodecs and by
+//              DecodeGray (common/image: TurboJPEG)
 //   extract    ours (both descriptors) on the working frame, one thread and with OpenCV's
 //              loops on a 2-thread pool (opencv_threads.h); and the two-pass extraction
 //              (detect, then compute over 2N keypoints) for comparison
@@ -120,6 +121,20 @@ cv::Mat ReducedDecode(const std::string& jpeg, const ExtractionTarget& t, int w,
   return out;
 }
 
+// The same reduced decode through OpenCV's imgcodecs, which the programs used before
+// common/image: the two stages side by side say what the codec costs or saves.
+cv::Mat ImgcodecsReducedDecode(const std::string& jpeg, const ExtractionTarget& t, int w, int h) {
+  const int reduction = DecodeReduction(w, h, t);
+  const int flags = reduction == 8   ? cv::IMREAD_REDUCED_GRAYSCALE_8
+                    : reduction == 4 ? cv::IMREAD_REDUCED_GRAYSCALE_4
+                    : reduction == 2 ? cv::IMREAD_REDUCED_GRAYSCALE_2
+                                     : cv::IMREAD_GRAYSCALE;
+  const cv::Mat buffer(1, static_cast<int>(jpeg.size()), CV_8U, const_cast<char*>(jpeg.data()));
+  cv::Mat gray = cv::imdecode(buffer, flags), out;
+  cv::resize(gray, out, cv::Size(t.width, t.height), 0, 0, cv::INTER_AREA);
+  return out;
+}
+
 struct Stage {
   std::string name;
   std::function<void(size_t frame)> run;
@@ -205,6 +220,11 @@ std::vector<Stage> MakeStages(Setup& s) {
       {"SIFT in strips (ours), pool of 2 [pool]", strips, {}},
       {"decode: colour, grey, resize (before)",
        [&s](size_t i) { FullDecode(s.in.jpegs[i], s.f[i].target); },
+       {}},
+      {"decode: reduced grey, resize (imgcodecs)",
+       [&s](size_t i) {
+         ImgcodecsReducedDecode(s.in.jpegs[i], s.f[i].target, s.f[i].width, s.f[i].height);
+       },
        {}},
       {"decode: reduced grey, resize",
        [&s](size_t i) { ReducedDecode(s.in.jpegs[i], s.f[i].target, s.f[i].width, s.f[i].height); },

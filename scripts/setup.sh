@@ -10,6 +10,8 @@ set -euo pipefail
 packages=(
   build-essential cmake ninja-build pkg-config git clang-format
   libopencv-dev libeigen3-dev
+  # JPEG and PNG through their own libraries: the installed programs need no imgcodecs.
+  libturbojpeg0-dev libpng-dev
   libzmq3-dev cppzmq-dev
   libprotobuf-dev protobuf-compiler
   prometheus-cpp-dev libcivetweb-dev

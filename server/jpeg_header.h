@@ -1,5 +1,5 @@
 // Reads a JPEG's dimensions from its header without decoding it, so the server can refuse
-// a huge image before cv::imdecode allocates width x height x 3 bytes for it.
+// a huge image before the decoder (common/image) allocates its pixels.
 //
 // Thread-safe: a pure function.
 #pragma once
@@ -21,7 +21,7 @@ struct JpegDimensions {
 };
 
 // An upper bound on the memory that decoding a JPEG of `dims` holds at its peak, bytes:
-// the 3-byte-per-pixel image OpenCV returns, plus for a progressive JPEG the decoder's
+// a 3-byte-per-pixel decoded image, plus for a progressive JPEG the decoder's
 // coefficient arrays (2 bytes per pixel per component, without chroma subsampling).
 int64_t EstimateDecodeBytes(const JpegDimensions& dims);
 

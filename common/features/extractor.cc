@@ -5,12 +5,12 @@
 #include <cstdint>
 #include <filesystem>
 #include <opencv2/features2d.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
 #include "common/features/sift_describer.h"
 #include "common/features/sift_detector.h"
+#include "common/image/image_codec.h"
 
 namespace sceneloc {
 
@@ -316,43 +316,19 @@ std::vector<cv::KeyPoint> ContextKeypoints(const FeatureSet& set, const Extracto
 }
 
 StatusOr<cv::Mat> ReadImageFile(const std::string& path) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) {
-    return NotFound("'" + path + "' is not a readable file");
-  }
-  cv::Mat image;
-  try {
-    image = cv::imread(path, cv::IMREAD_COLOR);
-  } catch (const cv::Exception& e) {
-    return InvalidArgument("'" + path + "' could not be decoded: " + e.what());
-  }
-  if (image.empty()) return InvalidArgument("'" + path + "' is not a readable image");
-  return image;
-}
-
-namespace {
-
-StatusOr<cv::Mat> Decode(const std::string& bytes, int max_image_side, int flags) {
-  if (bytes.empty()) return InvalidArgument("image bytes are empty");
-  cv::Mat image;
-  try {
-    const cv::Mat buffer(1, static_cast<int>(bytes.size()), CV_8U, const_cast<char*>(bytes.data()));
-    image = cv::imdecode(buffer, flags);
-  } catch (const cv::Exception& e) {
-    return InvalidArgument(std::string("image bytes could not be decoded: ") + e.what());
-  }
-  if (image.empty()) return InvalidArgument("image bytes are not a decodable JPEG or PNG");
-  if (image.cols > max_image_side || image.rows > max_image_side) {
-    return ResourceExhausted("image is larger than " + std::to_string(max_image_side) +
-                             " pixels per side");
+  SCENELOC_ASSIGN_OR_RETURN(const std::string bytes, ReadFileBytes(path));
+  auto image = DecodeImageBytes(bytes, DecodeOptions{});
+  if (!image.ok()) {
+    return Status(image.status().code(),
+                  "'" + path + "' is not a readable image: " + image.status().message());
   }
   return image;
 }
-
-}  // namespace
 
 StatusOr<cv::Mat> DecodeImage(const std::string& bytes, int max_image_side) {
-  return Decode(bytes, max_image_side, cv::IMREAD_COLOR);
+  DecodeOptions options;
+  options.max_side = max_image_side;
+  return DecodeImageBytes(bytes, options);
 }
 
 int DecodeReduction(int width, int height, const ExtractionTarget& target) {
@@ -368,19 +344,11 @@ int DecodeReduction(int width, int height, const ExtractionTarget& target) {
 }
 
 StatusOr<cv::Mat> DecodeGray(const std::string& bytes, int max_image_side, int reduction) {
-  switch (reduction) {
-    case 1:
-      return Decode(bytes, max_image_side, cv::IMREAD_GRAYSCALE);
-    case 2:
-      return Decode(bytes, max_image_side, cv::IMREAD_REDUCED_GRAYSCALE_2);
-    case 4:
-      return Decode(bytes, max_image_side, cv::IMREAD_REDUCED_GRAYSCALE_4);
-    case 8:
-      return Decode(bytes, max_image_side, cv::IMREAD_REDUCED_GRAYSCALE_8);
-    default:
-      return InvalidArgument("decode reduction must be 1, 2, 4 or 8, not " +
-                             std::to_string(reduction));
-  }
+  DecodeOptions options;
+  options.gray = true;
+  options.reduction = reduction;
+  options.max_side = max_image_side;
+  return DecodeImageBytes(bytes, options);
 }
 
 }  // namespace sceneloc

@@ -1,16 +1,17 @@
 #include "common/synthetic/tour_generator.h"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <system_error>
 #include <thread>
 
+#include "common/image/image_codec.h"
 #include "common/synthetic/scene_texture.h"
 #include "common/synthetic/texture_painter.h"
 #include "common/synthetic/tour_camera.h"
@@ -122,9 +123,10 @@ class PassRenderer {
   }
 
   std::string Encode(const cv::Mat& image) const {
-    std::vector<uchar> bytes;
-    cv::imencode(".jpg", image, bytes, {cv::IMWRITE_JPEG_QUALITY, options_.jpeg_quality});
-    return std::string(bytes.begin(), bytes.end());
+    // The generator's own image and quality: an encoding error is a bug, not an input.
+    StatusOr<std::string> bytes = EncodeJpeg(image, options_.jpeg_quality);
+    assert(bytes.ok());
+    return bytes.ok() ? *std::move(bytes) : std::string();
   }
 
   const TourOptions options_;

@@ -5,11 +5,11 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
 
 #include "common/features/extractor.h"
+#include "common/image/image_codec.h"
 #include "common/training/trainer.h"
 #include "common/util/image_folder.h"
 #include "common/util/thread_pool.h"
@@ -127,12 +127,8 @@ StatusOr<std::vector<std::string>> ChangedQueries(const SuiteSet& set,
     if (fs::is_regular_file(target) && ReadsAs(stamp_path, stamp)) continue;
     SCENELOC_ASSIGN_OR_RETURN(const cv::Mat image, ReadImageFile(paths[i]));
     const auto [changed, quality] = Change(image, set.change, static_cast<uint32_t>(i));
-    const fs::path tmp = target.string() + ".tmp.jpg";
-    if (!cv::imwrite(tmp.string(), changed, {cv::IMWRITE_JPEG_QUALITY, quality})) {
-      return IoError("cannot write '" + tmp.string() + "'");
-    }
-    fs::rename(tmp, target, ec);
-    if (ec) return IoError("cannot write '" + target.string() + "': " + ec.message());
+    SCENELOC_ASSIGN_OR_RETURN(const std::string jpeg, EncodeJpeg(changed, quality));
+    SCENELOC_RETURN_IF_ERROR(WriteFileBytes(target.string(), jpeg));
     SCENELOC_RETURN_IF_ERROR(WriteStamp(stamp_path, stamp));
   }
   return out;

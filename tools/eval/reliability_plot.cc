@@ -1,8 +1,10 @@
 #include "tools/eval/reliability_plot.h"
 
 #include <cstdio>
-#include <opencv2/imgcodecs.hpp>
+#include <filesystem>
 #include <opencv2/imgproc.hpp>
+
+#include "common/image/image_codec.h"
 
 namespace sceneloc {
 namespace {
@@ -62,12 +64,12 @@ Status WriteReliabilityDiagram(const std::vector<ReliabilityPanel>& panels,
     const int r = static_cast<int>(i) / columns, c = static_cast<int>(i) % columns;
     DrawPanel(panels[i], cv::Point(c * cell_w, r * cell_h), &image);
   }
-  try {
-    if (cv::imwrite(path, image)) return Status::Ok();
-  } catch (const cv::Exception& e) {
-    return IoError("cannot write '" + path + "': " + e.what());
+  const std::string extension = std::filesystem::path(path).extension().string();
+  if (extension != ".png" && extension != ".PNG") {
+    return IoError("cannot write '" + path + "': the reliability diagram is a PNG; name it *.png");
   }
-  return IoError("cannot write '" + path + "'");
+  SCENELOC_ASSIGN_OR_RETURN(const std::string png, EncodePng(image));
+  return WriteFileBytes(path, png);
 }
 
 }  // namespace sceneloc
