@@ -43,7 +43,7 @@ corridor=()
 
 # The distractors, rendered once for the largest size; and the off-route frames.
 wanted=$((largest - 200 - ${#corridor[@]}))
-have=$(ls "$out/distractors/tour" 2>/dev/null | wc -l)
+have=$( (ls "$out/distractors/tour" 2>/dev/null || true) | wc -l)  # none on a first run
 if ((wanted > 0 && have < wanted)); then
   echo "rendering $wanted distractor locations"
   "$build/tools/sceneloc-gentour" --out "$out/distractors" --locations "$wanted" --width 960 \
