@@ -28,14 +28,16 @@ train_gp_map "$data"
 rm -f "$out/maps/gp2.scnl"
 
 start_server 2 --threads 2
-echo "resident memory, 1 map: $(rss_mb) MB"
+rss_one=$(rss_mb)
+echo "resident memory, 1 map: $rss_one MB"
 cp "$out/maps/gp.scnl" "$out/maps/gp2.scnl"
 deadline=$((SECONDS + 30))
 until "$client" maps --server "$endpoint" | grep -q gp2; do
   ((SECONDS < deadline)) || { echo "bench_server: second map never loaded" >&2; exit 1; }
   sleep 0.2
 done
-echo "resident memory, 2 maps: $(rss_mb) MB"
+rss_two=$(rss_mb)
+echo "resident memory, 2 maps: $rss_two MB"
 rm -f "$out/maps/gp2.scnl"
 bench one_client_jpeg 1
 bench one_client_features 1 --features
@@ -52,7 +54,7 @@ start_server 1 --threads 1
 bench eight_clients_threads1 8
 stop_server
 
-/usr/bin/python3 - "$out" <<'PY'
+/usr/bin/python3 - "$out" "$rss_one" "$rss_two" <<'PY'
 import json, sys
 out = sys.argv[1]
 r = {n: json.load(open(f"{out}/{n}.json")) for n in (
@@ -67,4 +69,10 @@ print(f"8 clients: --threads 2 / --threads 1 throughput = "
       f"{r['eight_clients']['throughput_rps'] / r['eight_clients_threads1']['throughput_rps']:.2f}x")
 print(f"reload under load: p99 {r['eight_clients_reload']['latency_ms']['p99']:.1f} ms "
       f"vs {r['eight_clients']['latency_ms']['p99']:.1f} ms without")
+# The figures above in one file, for the results page (scripts/results_page.py record server).
+summary = {"rss_mb": {"one_map": float(sys.argv[2]), "two_maps": float(sys.argv[3])}, "runs": {
+    n: {k: j[k] for k in ("requests", "throughput_rps", "errors", "map_versions", "latency_ms")}
+    for n, j in r.items()}}
+json.dump(summary, open(f"{out}/server.json", "w"), indent=1)
+print(f"{out}/server.json")
 PY

@@ -43,13 +43,20 @@ bench() {  # bench NAME [--sessions]: one client, feature sets, $seconds s
     "$data/day_right" >/dev/null
 }
 for round in 1 2; do bench "plain-$round"; bench "session-$round" --sessions; done
-/usr/bin/python3 - "$out" <<'PY'
+/usr/bin/python3 - "$out" "$live" "$bytes" "$rss_before" "$rss_after" <<'PY'
 import json, sys, statistics as st
 out = sys.argv[1]
+summary = {"sessions": int(sys.argv[2]), "session_bytes": int(sys.argv[3]),
+           "rss_mb": {"before": float(sys.argv[4]), "after": float(sys.argv[5])},
+           "latency_ms": {}}
 def p(kind, q):
     return st.median(json.load(open(f"{out}/sessions-{kind}-{r}.json"))["latency_ms"][q] for r in (1, 2))
 for q in ("p50", "p99"):
     a, b = p("plain", q), p("session", q)
     print(f"one client, feature sets, {q}: without a session {a:.2f} ms, with one {b:.2f} ms, "
           f"ratio {b / a:.3f}")
+    summary["latency_ms"][q] = {"plain": a, "session": b}
+# The figures above in one file, for the results page (scripts/results_page.py record sessions).
+json.dump(summary, open(f"{out}/sessions.json", "w"), indent=1)
+print(f"{out}/sessions.json")
 PY

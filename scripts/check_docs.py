@@ -167,9 +167,9 @@ def main():
             lines = f.read().split("\n")
         page_dir = os.path.dirname(path)
         beside = local_flags(page_dir)
-        # The results page records runs as they were made: its links are checked, not its
-        # flags and settings.
-        record = page == "docs/results.md"
+        # The results page and the history record runs as they were made: their links are
+        # checked, not their flags and settings.
+        record = page in ("docs/results.md", "docs/history.md")
         for number, line in enumerate(lines, 1):
             where = f"{page}:{number}"
             if line.startswith("```"):

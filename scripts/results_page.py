@@ -1,0 +1,438 @@
+#!/usr/bin/python3
+"""docs/results.md, generated from the runs that made its figures.
+
+Each suite's run is kept as JSON in docs/runs/SUITE.json: the suite's own output (trimmed to
+its summaries) with the date, commit, machine and command of the run. The page is rendered
+from those files alone, so a figure cannot drift from its run; ctest docs/ResultsPageIsCurrent
+fails when docs/results.md is not what they render.
+
+  results_page.py record SUITE FILE [--command CMD] [--commit VERSION]   keep a run
+  results_page.py render                              write docs/results.md
+  results_page.py check                               exit 1 if docs/results.md is stale
+
+The suites and the files they write:
+  accuracy  scripts/accuracy.sh OUT            OUT/accuracy.json
+  scale     scripts/bench_scale.sh OUT         OUT/scale.json
+  server    scripts/bench_server.sh OUT        OUT/server.json
+  sessions  scripts/bench_sessions.sh OUT      OUT/sessions.json
+  hostile   scripts/hostile.sh OUT             OUT/hostile.json
+"""
+import argparse
+import datetime
+import json
+import os
+import platform
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+RUNS = ROOT / "docs" / "runs"
+PAGE = ROOT / "docs" / "results.md"
+SUITES = ("accuracy", "scale", "server", "sessions", "hostile")
+# Suites whose figures are not yet kept as runs here: their scripts print them, and the
+# figures last measured are in docs/history.md and git.
+NOT_RECORDED = {
+    "latency floor": "scripts/bench_latency.sh",
+    "fleet": "scripts/bench_fleet.sh",
+    "CURVE's cost": "scripts/bench_auth.sh",
+    "the paper's experiments (eta)": "scripts/experiments.sh",
+}
+
+
+# ---------------------------------------------------------------- record
+
+def machine():
+    model = "unknown CPU"
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+        kb = next(int(l.split()[1]) for l in Path("/proc/meminfo").read_text().splitlines()
+                  if l.startswith("MemTotal"))
+        memory = f", {kb / 1024 / 1024:.0f} GiB"
+    except (OSError, StopIteration, ValueError):
+        memory = ""
+    return f"{model}, {os.cpu_count()} cores{memory}, {platform.system()} {platform.release()}"
+
+
+def git(*args):
+    return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True,
+                          check=False).stdout.strip()
+
+
+def trim_accuracy(run):
+    """accuracy.json without its per-query answers (megabytes; the summaries stay)."""
+    for s in run.get("sets", []):
+        s.pop("per_query", None)
+        for m in s.get("methods", {}).values():
+            m.get("confidence", {}).pop("reliability_bins", None)
+    for p in run.get("pooled", {}).values():
+        for m in p.get("methods", {}).values():
+            m.get("confidence", {}).pop("reliability_bins", None)
+    run.pop("train_settings", None)
+    run.pop("match_settings", None)
+    return run
+
+
+def record(suite, path, command, commit):
+    data = json.loads(Path(path).read_text())
+    if suite == "accuracy":
+        data = trim_accuracy(data)
+    # The build's own version (`--version`, in the suite's JSON) when it wrote one, else the
+    # commit given, else the checkout's.
+    commit = data.get("version") or commit or git("rev-parse", "--short=10", "HEAD") or "unknown"
+    data["run"] = {
+        "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+        "commit": commit,
+        "machine": machine(),
+        "command": command or f"(from {path})",
+    }
+    RUNS.mkdir(parents=True, exist_ok=True)
+    (RUNS / f"{suite}.json").write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
+    print(f"results_page: kept {suite} in {RUNS / (suite + '.json')}; now render the page")
+
+
+# ---------------------------------------------------------------- render helpers
+
+def f2(x):
+    return "–" if x is None else f"{x:.2f}"
+
+
+def f3(x):
+    return "–" if x is None else f"{x:.3f}"
+
+
+def table(header, rows):
+    out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    out += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
+    return out
+
+
+def provenance(run):
+    r = run["run"]
+    return (f"Run {r['date']} at commit `{r['commit']}` on {r['machine']}: "
+            f"`{r['command']}`.")
+
+
+# ---------------------------------------------------------------- accuracy
+
+METHODS = (("sceneloc", "sceneloc"), ("paper", "the paper as printed"),
+           ("baseline", "FLANN votes"), ("baseline+ransac", "votes re-ranked by RANSAC"))
+
+
+def method(s, name):
+    return s["methods"].get(name)
+
+
+def rate(m, k):
+    return None if m is None else m["match_rate"].get(str(k))
+
+
+def accuracy_section(run):
+    out = ["## Accuracy on every development set", "", provenance(run), "",
+           "Single frames, ±2 locations (the fraction of queries answered within two tour "
+           "images of the truth), every method on the same features: `sceneloc` (the shipped "
+           "settings), the paper's method as printed (`configs/paper-*.yaml`), the FLANN "
+           "voting baseline and its votes re-ranked by RANSAC inliers. *LOCALISED precision*: "
+           "the share of "
+           "answers at or above the confidence threshold that are right (±2); *share "
+           "LOCALISED*: how many answers reach it. *Session ±2*: the same frames in order "
+           "through one session (the sequence filter). *Off-route*: frames of another route "
+           "LOCALISED.",
+           ""]
+    names = [m for m, _ in METHODS if any(method(s, m) for s in run["sets"])]
+    header = ["set", "locations", "queries"] + [f"±2 {label}" for m, label in METHODS
+                                                if m in names]
+    header += ["±0 sceneloc", "LOCALISED precision", "share LOCALISED", "session ±2",
+               "off-route"]
+    rows = []
+    for s in run["sets"]:
+        ours = method(s, "sceneloc")
+        conf = ours["confidence"] if ours else {}
+        session = s.get("sessions", {}).get("walks", {}).get("in_order", {}).get("rate")
+        neg = s.get("negatives", {})
+        off = (f"{neg['accepted']} / {neg['frames']}" if neg.get("frames") else "–")
+        rows.append([s["name"], s["locations"], s["queries"]] +
+                    [f2(rate(method(s, m), 2)) for m, _ in METHODS if m in names] +
+                    [f2(rate(ours, 0)), f3(conf.get("accepted_precision")),
+                     f2(conf.get("accepted")), f2(session), off])
+    out += table(header, rows)
+    out += ["", "What each set is:", ""]
+    out += [f"- `{s['name']}`: {s['description']}" for s in run["sets"]]
+    pooled = run.get("pooled", {})
+    if pooled:
+        out += ["", "### The confidence, pooled over the sets", "",
+                "ECE (expected calibration error) beside its sampling floor (what a perfectly "
+                "calibrated confidence would show on this many queries); PR-AUC of the "
+                "confidence as a detector of right answers.", ""]
+        rows = []
+        for name, p in pooled.items():
+            for m, label in METHODS:
+                mm = p["methods"].get(m)
+                if not mm:
+                    continue
+                c = mm["confidence"]
+                rows.append([name, label, p["queries"], f2(rate(mm, 2)), f3(c["ece"]),
+                             f3(c["ece_floor"]), f3(c["pr_auc"]),
+                             f3(c.get("accepted_precision"))])
+        out += table(["sets", "method", "queries", "±2", "ECE", "ECE floor", "PR-AUC",
+                      "LOCALISED precision"], rows)
+    return out
+
+
+# ---------------------------------------------------------------- scale
+
+SCALE_ROWS = (
+    ("train_s", "training, s", "{:.0f}"),
+    ("train_ms_per_location_but_extraction", "all but extraction, ms per location", "{:.1f}"),
+    ("train_peak_rss_mb", "training peak RSS, MB", "{:.0f}"),
+    ("map_file_mb", "map file, MB", "{:.0f}"),
+    ("map_kb_per_location", "map in RAM, KB per location", "{:.1f}"),
+    ("load_s", "load, s", "{:.2f}"),
+    ("reload_peak_over_one_map", "reload peak / one map (server RSS)", "{:.2f}"),
+    ("jpeg_p50_ms", "JPEG request p50, ms", "{:.1f}"),
+    ("jpeg_p99_ms", "JPEG request p99, ms", "{:.1f}"),
+    ("features_p50_ms", "feature-set request p50, ms", "{:.1f}"),
+    ("features_p99_ms", "feature-set request p99, ms", "{:.1f}"),
+    ("match_2", "±2 (GP day_right)", "{:.2f}"),
+    ("localised_precision", "LOCALISED precision", "{:.3f}"),
+    ("offroute_localised", "off-route LOCALISED", "{:.3f}"),
+)
+
+
+def scale_section(run):
+    sizes = run["sizes"]
+    out = ["## Maps that grow", "", provenance(run), "",
+           "`day_left` (200 real locations) padded with the corridor's frames and generated "
+           "distractor locations to each size; queries GP `day_right` 000–099, one client. "
+           "The last columns: the largest size over the smallest, the slope against the size "
+           "(log-log between the two largest; 1 = linear) and the projection to 100,000 "
+           "locations along it.", ""]
+    header = ["figure"] + [f"{s['locations']:,}" for s in sizes] + ["ratio", "slope",
+                                                                     "at 100,000"]
+    rows = []
+    for key, label, fmt in SCALE_ROWS:
+        if not all(key in s for s in sizes):
+            continue
+        projected = run.get("at_100000", {}).get(key)
+        rows.append([label] + [fmt.format(s[key]) for s in sizes] + [
+            f2(run.get("ratios", {}).get(key)), f2(run.get("slopes", {}).get(key)),
+            "–" if projected is None else fmt.format(projected)])
+    out += table(header, rows)
+    return out
+
+
+# ---------------------------------------------------------------- server
+
+SERVER_RUNS = (
+    ("one_client_jpeg", "one client, JPEG frames"),
+    ("one_client_features", "one client, feature sets"),
+    ("eight_clients", "8 clients, JPEG, --threads 2"),
+    ("eight_clients_reload", "the same, map replaced mid-run"),
+    ("eight_clients_threads1", "8 clients, JPEG, --threads 1"),
+)
+
+
+def server_section(run):
+    out = ["## Server", "", provenance(run), "",
+           "The 200-location Gardens Point map (`day_left`), `day_right` frames over a real "
+           "ZeroMQ socket on loopback (`sceneloc bench`).", ""]
+    rows = []
+    for key, label in SERVER_RUNS:
+        r = run["runs"].get(key)
+        if not r:
+            continue
+        lat = r["latency_ms"]
+        rows.append([label, r["requests"], f"{r['throughput_rps']:.1f}", f"{lat['p50']:.1f}",
+                     f"{lat['p99']:.1f}", r["errors"], r["map_versions"]])
+    out += table(["run", "requests", "req/s", "p50 ms", "p99 ms", "errors", "generations"],
+                 rows)
+    rss = run.get("rss_mb", {})
+    if rss:
+        out += ["", f"Resident memory: {rss['one_map']:.0f} MB with one map, "
+                    f"{rss['two_maps']:.0f} MB with two."]
+    return out
+
+
+# ---------------------------------------------------------------- sessions, hostile input
+
+def sessions_section(run):
+    lat = run["latency_ms"]
+    rss = run["rss_mb"]
+    out = ["## Sessions in a server", "", provenance(run), "",
+           f"{run['sessions']:,} live sessions on the 200-location map, each opened by one "
+           f"feature-set frame, hold {run['session_bytes'] / 1e6:.2f} MB "
+           f"({run['session_bytes'] / max(1, run['sessions']):,.0f} bytes each; server RSS "
+           f"{rss['before']:.0f} → {rss['after']:.0f} MB). One client's feature-set requests, "
+           "without and with a session (median of two alternating runs each):", ""]
+    rows = [[q, f"{v['plain']:.2f}", f"{v['session']:.2f}", f"{v['session'] / v['plain']:.3f}"]
+            for q, v in lat.items()]
+    return out + table(["", "without, ms", "with a session, ms", "ratio"], rows)
+
+
+def hostile_section(run):
+    out = ["## Hostile input", "", provenance(run), "",
+           f"Attacks on a running server (the 200-location map) while a good client localises "
+           f"a frame every half second (its p50 at rest {run['good_p50_at_rest_ms']:.1f} ms); "
+           f"idle RSS {run['idle_rss_mb']:.0f} MB, target peak {run['target_peak_mb']:.0f} MB. "
+           + ("Every attack within its targets." if run["all_within_targets"] else
+              "**Some attack passed a target.**"), ""]
+    rows = [[a["attack"], a["hostile_got"], f"{a['good_worst_ms']:.0f}",
+             f"{a['peak_rss_mb']:.0f}", a["server"]] for a in run["attacks"]]
+    return out + table(["attack", "the hostile requests got", "good client's worst, ms",
+                        "peak RSS, MB", "server"], rows)
+
+
+# ---------------------------------------------------------------- page
+
+RENDER = {"accuracy": accuracy_section, "scale": scale_section, "server": server_section,
+          "sessions": sessions_section, "hostile": hostile_section}
+
+# ---------------------------------------------------------------- README's headline figures
+
+README = ROOT / "README.md"
+SET_NAMES = {
+    "gp_day": "Gardens Point day (other side of the path)",
+    "gp_night_same": "GP night, same side (640×360 against 960×540)",
+    "gp_night_other": "GP night, other side",
+    "corridor": "corridor, 160×120 fish-eye",
+    "gp_day_smaller": "GP day from a 320×180 camera",
+    "gp_day_darker": "GP day at dusk (darker, noisy)",
+    "gp_day_jpeg": "GP day, JPEG quality 8",
+    "gp_day_blur": "GP day, blurred",
+    "gp_day_zoom": "GP day through a narrower lens",
+    "gp_day_4_3": "GP day from a 4:3 sensor",
+    "gp_day_roll": "GP day from a camera rolled 5°",
+}
+
+
+def readme_accuracy(run):
+    rows = []
+    for s in run["sets"]:
+        session = s.get("sessions", {}).get("walks", {}).get("in_order", {}).get("rate")
+        rows.append([SET_NAMES.get(s["name"], s["name"]),
+                     f"**{f2(rate(method(s, 'sceneloc'), 2))}**"] +
+                    [f2(rate(method(s, m), 2)) for m, _ in METHODS[1:]] + [f2(session)])
+    out = table(["set", "sceneloc", "the paper as printed", "FLANN votes",
+                 "votes re-ranked by RANSAC", "sceneloc as a session"], rows)
+    precision = [method(s, "sceneloc")["confidence"]["accepted_precision"] for s in run["sets"]]
+    day = next((method(s, "sceneloc")["confidence"]["accepted_precision"]
+                for s in run["sets"] if s["name"] == "gp_day"), None)
+    threshold = method(run["sets"][0], "sceneloc")["confidence"]["threshold"]
+    out += ["", f"Of the answers a robot would act on (`LOCALISED`, confidence ≥ {threshold:g}), "
+                f"{min(precision):.2f}–"
+                f"{max(precision):.2f} are right per set"
+                + (f" ({day:.3f} on GP day)." if day is not None else ".")]
+    return out
+
+
+def readme_scale(run):
+    rows = []
+    for s in run["sizes"]:
+        minutes = s["train_s"] / 60
+        rows.append([f"{s['locations']:,}",
+                     f"{s['train_s']:.0f} s" if minutes < 1 else f"{minutes:.1f} min",
+                     f"{s['train_peak_rss_mb'] / 1024:.1f} GB",
+                     f"{s['map_memory_mb']:.0f} MB" if "map_memory_mb" in s else "–",
+                     f"{s['load_s']:.2f} s",
+                     f"{s['features_p50_ms']:.0f} / {s['jpeg_p50_ms']:.0f} ms",
+                     f2(s["match_2"])])
+    return table(["locations", "training", "peak RSS", "map in RAM", "load",
+                  "feature-set / JPEG request p50", "±2 (GP day)"], rows)
+
+
+def readme_server(run):
+    jpeg = run["runs"]["one_client_jpeg"]["latency_ms"]
+    features = run["runs"]["one_client_features"]["latency_ms"]
+    return [f"One client's request on the 200-location map: a JPEG frame {jpeg['p50']:.0f} ms "
+            f"p50 ({jpeg['p99']:.0f} ms p99), a feature set extracted on board "
+            f"{features['p50']:.0f} ms ({features['p99']:.0f} ms) (`scripts/bench_server.sh`)."]
+
+
+README_BLOCKS = {"accuracy": readme_accuracy, "scale": readme_scale, "server": readme_server}
+
+
+def render_readme(runs, text):
+    """README.md with each `<!-- results_page: SUITE -->` ... `<!-- /results_page -->` block
+    rendered from that suite's run (left as it is when the suite has no run kept)."""
+    out, lines, i = [], text.split("\n"), 0
+    while i < len(lines):
+        line = lines[i]
+        out.append(line)
+        i += 1
+        if line.startswith("<!-- results_page: "):
+            suite = line[len("<!-- results_page: "):].split()[0]
+            end = i
+            while end < len(lines) and lines[end] != "<!-- /results_page -->":
+                end += 1
+            if end == len(lines):
+                sys.exit(f"README.md: the block '{suite}' has no <!-- /results_page -->")
+            body = lines[i:end]
+            if suite in runs and suite in README_BLOCKS:
+                body = README_BLOCKS[suite](runs[suite])
+            out += body
+            i = end
+    return "\n".join(out)
+
+
+def load_runs():
+    return {s: json.loads((RUNS / f"{s}.json").read_text())
+            for s in SUITES if (RUNS / f"{s}.json").exists()}
+
+
+def render():
+    runs = load_runs()
+    out = ["# Results", "",
+           "<!-- Generated by scripts/results_page.py from docs/runs/*.json: do not edit. -->",
+           "",
+           "Today's figures, each table from the JSON its run wrote (`docs/runs/`), with the "
+           "run's date, commit and machine. Re-run a suite, keep its JSON with "
+           "`scripts/results_page.py record SUITE FILE --command CMD`, then "
+           "`scripts/results_page.py render`. How we measure: [measurements.md]"
+           "(measurements.md); decisions and what was tried and not taken: "
+           "[history.md](history.md).", ""]
+    for suite in SUITES:
+        if suite in runs:
+            out += RENDER[suite](runs[suite]) + [""]
+    missing = [s for s in SUITES if s not in runs]
+    out += ["## Not yet kept as runs", "",
+            "These suites print their figures but have no run in `docs/runs/` yet; their "
+            "last figures and the reasons behind them are in [history.md](history.md).", ""]
+    out += [f"- {name}: `{script}`" for name, script in NOT_RECORDED.items()]
+    out += [f"- {s}: `{s}` has no run kept yet" for s in missing]
+    return "\n".join(out) + "\n"
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    sub = parser.add_subparsers(dest="verb", required=True)
+    rec = sub.add_parser("record", help="keep a suite's run in docs/runs/")
+    rec.add_argument("suite", choices=SUITES)
+    rec.add_argument("file", help="the JSON the suite wrote")
+    rec.add_argument("--command", default="", help="the command that ran it")
+    rec.add_argument("--commit", default="", help="the commit it ran at (default: HEAD)")
+    sub.add_parser("render", help="write docs/results.md")
+    sub.add_parser("check", help="exit 1 when docs/results.md is not what the runs render")
+    args = parser.parse_args()
+    if args.verb == "record":
+        record(args.suite, args.file, args.command, args.commit)
+    elif args.verb == "render":
+        page = render()
+        PAGE.write_text(page)
+        README.write_text(render_readme(load_runs(), README.read_text()))
+        print(f"results_page: wrote {PAGE} ({len(page.splitlines())} lines) and README.md's "
+              "figures")
+    else:
+        stale = [str(p.relative_to(ROOT)) for p, want in (
+            (PAGE, render()), (README, render_readme(load_runs(), README.read_text())))
+            if p.read_text() != want]
+        if stale:
+            sys.exit(f"{' and '.join(stale)}: not what docs/runs/*.json render; run "
+                     "scripts/results_page.py render")
+        print("results_page: docs/results.md and README.md's figures are current")
+
+
+if __name__ == "__main__":
+    main()
