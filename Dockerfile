@@ -43,7 +43,8 @@ RUN dpkg-deb --build /tmp/headless-glx /tmp/headless-glx.deb >/dev/null \
  && dpkg -i /tmp/headless-glx.deb \
  && apt-get update -qq \
  && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends /tmp/sceneloc_*.deb \
- && rm -rf /var/lib/apt/lists/* /tmp/sceneloc_*.deb /tmp/headless-glx* \
+ && apt-get clean \
+ && rm -rf /var/lib/apt/lists/* /var/cache/apt/*.bin /tmp/sceneloc_*.deb /tmp/headless-glx* \
  && mkdir -p /maps && chown sceneloc:sceneloc /maps
 VOLUME /maps
 EXPOSE 5555

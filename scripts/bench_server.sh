@@ -54,9 +54,10 @@ start_server 1 --threads 1
 bench eight_clients_threads1 8
 stop_server
 
-/usr/bin/python3 - "$out" "$rss_one" "$rss_two" <<'PY'
+/usr/bin/python3 - "$out" "$rss_one" "$rss_two" "$("$client" --version)" <<'PY'
 import json, sys
 out = sys.argv[1]
+version = sys.argv[4]  # the build's --version: the commit these figures were made at
 r = {n: json.load(open(f"{out}/{n}.json")) for n in (
     "one_client_jpeg", "one_client_features", "eight_clients", "eight_clients_reload",
     "eight_clients_threads1")}
@@ -70,7 +71,8 @@ print(f"8 clients: --threads 2 / --threads 1 throughput = "
 print(f"reload under load: p99 {r['eight_clients_reload']['latency_ms']['p99']:.1f} ms "
       f"vs {r['eight_clients']['latency_ms']['p99']:.1f} ms without")
 # The figures above in one file, for the results page (scripts/results_page.py record server).
-summary = {"rss_mb": {"one_map": float(sys.argv[2]), "two_maps": float(sys.argv[3])}, "runs": {
+summary = {"version": version,
+           "rss_mb": {"one_map": float(sys.argv[2]), "two_maps": float(sys.argv[3])}, "runs": {
     n: {k: j[k] for k in ("requests", "throughput_rps", "errors", "map_versions", "latency_ms")}
     for n, j in r.items()}}
 json.dump(summary, open(f"{out}/server.json", "w"), indent=1)

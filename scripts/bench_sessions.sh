@@ -43,10 +43,11 @@ bench() {  # bench NAME [--sessions]: one client, feature sets, $seconds s
     "$data/day_right" >/dev/null
 }
 for round in 1 2; do bench "plain-$round"; bench "session-$round" --sessions; done
-/usr/bin/python3 - "$out" "$live" "$bytes" "$rss_before" "$rss_after" <<'PY'
+/usr/bin/python3 - "$out" "$live" "$bytes" "$rss_before" "$rss_after" "$("$client" --version)" <<'PY'
 import json, sys, statistics as st
 out = sys.argv[1]
-summary = {"sessions": int(sys.argv[2]), "session_bytes": int(sys.argv[3]),
+summary = {"version": sys.argv[6], "sessions": int(sys.argv[2]),
+           "session_bytes": int(sys.argv[3]),
            "rss_mb": {"before": float(sys.argv[4]), "after": float(sys.argv[5])},
            "latency_ms": {}}
 def p(kind, q):

@@ -22,7 +22,7 @@ status=0
   --map "$out/maps/gp.scnl" --query "$data/day_right/$query" --threads "$threads" |
   tee "$out/hostile.txt" || status=$?
 # The table above in one file, for the results page (scripts/results_page.py record hostile).
-/usr/bin/python3 - "$out" <<'PY'
+/usr/bin/python3 - "$out" "$("$client" --version)" <<'PY'
 import json, re, sys
 out = sys.argv[1]
 text = open(f"{out}/hostile.txt").read()
@@ -35,8 +35,9 @@ for line in text.splitlines():
         attacks.append({"attack": cells[0], "hostile_got": cells[1],
                         "good_worst_ms": float(cells[2][:-3]), "peak_rss_mb": float(cells[3][:-3]),
                         "server": cells[4]})
-json.dump({"idle_rss_mb": float(head.group(1)), "target_peak_mb": float(head.group(2)),
-           "good_p50_at_rest_ms": float(head.group(3)), "attacks": attacks,
+json.dump({"version": sys.argv[2], "idle_rss_mb": float(head.group(1)),
+           "target_peak_mb": float(head.group(2)), "good_p50_at_rest_ms": float(head.group(3)),
+           "attacks": attacks,
            "all_within_targets": "ALL WITHIN TARGETS" in text},
           open(f"{out}/hostile.json", "w"), indent=1)
 print(f"{out}/hostile.json")

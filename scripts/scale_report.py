@@ -6,6 +6,7 @@ Usage: scale_report.py OUT SIZE [SIZE ...]"""
 import json
 import math
 import re
+import subprocess
 import sys
 from pathlib import Path
 
@@ -70,6 +71,16 @@ COLUMNS = [
 ]
 
 
+def version():
+    """The build's --version (the commit its figures were made at), for the results page."""
+    train = Path(__file__).resolve().parent.parent / "build" / "tools" / "sceneloc-train"
+    try:
+        return subprocess.run([str(train), "--version"], capture_output=True, text=True,
+                              check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return None
+
+
 def slope(rows, key):
     a, b = rows[-2], rows[-1]
     if a[key] <= 0 or b[key] <= 0 or a["locations"] == b["locations"]:
@@ -82,7 +93,7 @@ def main(out, sizes):
     first, last = rows[0]["locations"], rows[-1]["locations"]
     lines = ["| figure | " + " | ".join(f"{r['locations']:,}" for r in rows) +
              f" | {last:,} / {first:,} | slope | at 100,000 |", "|---" * (len(rows) + 4) + "|"]
-    report = {"sizes": rows, "ratios": {}, "slopes": {}, "at_100000": {}}
+    report = {"sizes": rows, "ratios": {}, "slopes": {}, "at_100000": {}, "version": version()}
     for key, label, fmt in COLUMNS:
         cells = [fmt.format(r[key]) for r in rows]
         s = slope(rows, key) if len(rows) > 1 else None
