@@ -22,6 +22,7 @@ import datetime
 import json
 import os
 import platform
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -90,6 +91,9 @@ def record(suite, path, command, commit):
         "command": command or f"(from {path})",
     }
     RUNS.mkdir(parents=True, exist_ok=True)
+    plot = Path(path).with_name(f"{suite}.png")
+    if suite == "scale" and plot.exists():  # bench_scale's plot, beside its JSON
+        shutil.copyfile(plot, RUNS / plot.name)
     (RUNS / f"{suite}.json").write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
     print(f"results_page: kept {suite} in {RUNS / (suite + '.json')}; now render the page")
 
@@ -221,6 +225,8 @@ def scale_section(run):
             f2(run.get("ratios", {}).get(key)), f2(run.get("slopes", {}).get(key)),
             "–" if projected is None else fmt.format(projected)])
     out += table(header, rows)
+    if (RUNS / "scale.png").exists():
+        out += ["", "![every figure against the map's size](runs/scale.png)"]
     return out
 
 
