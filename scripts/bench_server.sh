@@ -20,7 +20,8 @@ need_gp_data "$data"
 bench() {
   local name=$1 clients=$2; shift 2
   "$client" bench --server "$endpoint" --map gp --clients "$clients" --duration "$seconds" \
-    --json "$out/$name.json" "$@" "$data/day_right" | sed "s/^/[$name] /"
+    --json "$out/$name.json" "$@" "$data/day_right" | sed "s/^/[$name] /" ||
+    true  # refused requests (OVERLOADED on one thread) are figures, in the JSON, not a failure
 }
 
 bash "$root/scripts/build.sh" >/dev/null

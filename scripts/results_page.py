@@ -251,10 +251,16 @@ def server_section(run):
         if not r:
             continue
         lat = r["latency_ms"]
+        errors = ", ".join(f"{k} {v}" for k, v in r["errors"].items()) or "none"
         rows.append([label, r["requests"], f"{r['throughput_rps']:.1f}", f"{lat['p50']:.1f}",
-                     f"{lat['p99']:.1f}", r["errors"], r["map_versions"]])
+                     f"{lat['p99']:.1f}", errors,
+                     ", ".join(str(v) for v in r["map_versions"])])
     out += table(["run", "requests", "req/s", "p50 ms", "p99 ms", "errors", "generations"],
                  rows)
+    two, one = run["runs"].get("eight_clients"), run["runs"].get("eight_clients_threads1")
+    if two and one:
+        out += ["", f"8 clients: `--threads 2` serves {two['throughput_rps'] / one['throughput_rps']:.2f}"
+                    "× the requests of `--threads 1` (the same two cores)."]
     rss = run.get("rss_mb", {})
     if rss:
         out += ["", f"Resident memory: {rss['one_map']:.0f} MB with one map, "
