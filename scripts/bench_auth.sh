@@ -46,9 +46,10 @@ for ((round = 1; round <= rounds; round++)); do
   done
 done
 
-/usr/bin/python3 - "$out" "$rounds" <<'PY'
+/usr/bin/python3 - "$out" "$rounds" "$("$client" --version)" <<'PY'
 import json, statistics, sys
 out, rounds = sys.argv[1], int(sys.argv[2])
+summary = {"version": sys.argv[3], "rounds": rounds, "runs": {}}
 for run in ("features", "jpeg", "eight"):
     row = {}
     for mode in ("off", "on"):
@@ -64,4 +65,9 @@ for run in ("features", "jpeg", "eight"):
           f"CURVE: p50 {on[0]:6.1f} p99 {on[1]:6.1f} ms {on[2]:6.1f} req/s | "
           f"p50 x{on[0] / off[0]:.3f}  p99 x{on[1] / off[1]:.3f}  throughput x{on[2] / off[2]:.3f}"
           f"  errors {off[3]}/{on[3]}")
+    summary["runs"][label] = {mode: {"p50_ms": v[0], "p99_ms": v[1], "throughput_rps": v[2],
+                                     "errors": v[3]} for mode, v in row.items()}
+# The figures above in one file, for the results page (scripts/results_page.py record auth).
+json.dump(summary, open(f"{out}/auth.json", "w"), indent=1)
+print(f"{out}/auth.json")
 PY

@@ -16,6 +16,7 @@ The suites and the files they write:
   server    scripts/bench_server.sh OUT        OUT/server.json
   sessions  scripts/bench_sessions.sh OUT      OUT/sessions.json
   hostile   scripts/hostile.sh OUT             OUT/hostile.json
+  auth      scripts/bench_auth.sh OUT          OUT/auth.json
 """
 import argparse
 import datetime
@@ -30,13 +31,12 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 RUNS = ROOT / "docs" / "runs"
 PAGE = ROOT / "docs" / "results.md"
-SUITES = ("accuracy", "scale", "server", "sessions", "hostile")
+SUITES = ("accuracy", "scale", "server", "sessions", "hostile", "auth")
 # Suites whose figures are not yet kept as runs here: their scripts print them, and the
 # figures last measured are in docs/history.md and git.
 NOT_RECORDED = {
     "latency floor": "scripts/bench_latency.sh",
     "fleet": "scripts/bench_fleet.sh",
-    "CURVE's cost": "scripts/bench_auth.sh",
     "the paper's experiments (eta)": "scripts/experiments.sh",
 }
 
@@ -297,10 +297,28 @@ def hostile_section(run):
                         "peak RSS, MB", "server"], rows)
 
 
+def auth_section(run):
+    out = ["## What CURVE costs", "", provenance(run), "",
+           f"The same requests with authentication off and on (`--auth true`), in alternating rounds "
+           f"({run['rounds']} each; medians over the rounds), 200-location map.", ""]
+    rows = []
+    for label, r in run["runs"].items():
+        off, on = r["off"], r["on"]
+        rows.append([label, f"{off['p50_ms']:.1f} / {on['p50_ms']:.1f}",
+                     f"{on['p50_ms'] / off['p50_ms']:.3f}",
+                     f"{off['p99_ms']:.1f} / {on['p99_ms']:.1f}",
+                     f"{on['p99_ms'] / off['p99_ms']:.3f}",
+                     f"{on['throughput_rps'] / off['throughput_rps']:.3f}",
+                     f"{off['errors']} / {on['errors']}"])
+    return out + table(["clients and requests", "p50 ms off / on", "ratio",
+                        "p99 ms off / on", "ratio", "throughput on / off", "errors off / on"],
+                       rows)
+
+
 # ---------------------------------------------------------------- page
 
 RENDER = {"accuracy": accuracy_section, "scale": scale_section, "server": server_section,
-          "sessions": sessions_section, "hostile": hostile_section}
+          "sessions": sessions_section, "hostile": hostile_section, "auth": auth_section}
 
 # ---------------------------------------------------------------- README's headline figures
 
