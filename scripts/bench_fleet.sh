@@ -159,9 +159,10 @@ kill -KILL "$worker_pid"
 wait "$bench_pid" || true
 cleanup
 
-/usr/bin/python3 - "$out" "$rounds" <<'PY'
+/usr/bin/python3 - "$out" "$rounds" "$("$client" --version)" <<'PY'
 import json, re, statistics, sys
 out, rounds = sys.argv[1], int(sys.argv[2])
+summary = {"version": sys.argv[3], "rounds": rounds, "throughput_rps": {}, "one_client": {}}
 def runs(name, run):
     return [json.load(open(f"{out}/fleet-{name}-{run}-{r}.json")) for r in range(1, rounds + 1)]
 def med(name, run, key):
@@ -180,6 +181,10 @@ for run, label in (("f8", "8 clients, feature sets"), ("j8", "8 clients, JPEG"))
     print(f"{label:<28}" + "".join(f"{c:>14}" for c in cells[:3]) + f"{cells[3]:>20}")
     print(f"{'':<28}two workers / one: {med('broker2', run, 'rps') / med('broker1', run, 'rps'):.2f}x"
           f"; errors {sum(errors(n, run) for n in ('direct', 'broker1', 'broker2', 'direct2'))}")
+    summary["throughput_rps"][label] = {
+        n: med(n, run, "rps") for n in ("direct", "broker1", "broker2", "direct2")}
+    summary["throughput_rps"][label]["errors"] = sum(
+        errors(n, run) for n in ("direct", "broker1", "broker2", "direct2"))
 print("1 client: p50 direct / through the broker; outside the server (the median over requests of "
       "each one's latency less its server time: network, broker, client) and what the broker adds")
 for run, label in (("f1", "features, 100 frames"), ("f1u8", "features uint8, 100 frames"),
@@ -187,6 +192,9 @@ for run, label in (("f1", "features, 100 frames"), ("f1u8", "features uint8, 100
                    ("one8", "features uint8, 1 frame")):
     d50, b50 = med("direct", run, "p50"), med("broker1", run, "p50")
     do, bo = med("direct", run, "outside"), med("broker1", run, "outside")
+    summary["one_client"][label] = {"direct_p50": d50, "broker_p50": b50, "direct_outside": do,
+                                    "broker_outside": bo, "direct_p99": med("direct", run, "p99"),
+                                    "broker_p99": med("broker1", run, "p99")}
     print(f"  {label:<26} p50 {d50:.2f} / {b50:.2f} ms; outside {do:.2f} / {bo:.2f} ms: "
           f"broker {bo - do:+.2f} ms; p99 {med('direct', run, 'p99'):.2f} / "
           f"{med('broker1', run, 'p99'):.2f} ms")
@@ -205,4 +213,11 @@ print(f"Python vs C++ client, 1 frame, direct: p50 {py50:.2f} vs {cpp50:.2f} ms 
 k = json.load(open(f"{out}/fleet-kill.json"))
 print(f"{'a worker killed mid-run':<28} {k['requests']} requests, {k['requests'] - k['ok']} failed "
       f"({k['errors']}), {k.get('retries', 0)} attempts retried")
+summary["python_one_frame"] = {"python_p50": py50, "cpp_p50": cpp50, "python_p99": py99,
+                               "cpp_p99": cpp99, "python_outside": py_out, "cpp_outside": cpp_out}
+summary["worker_killed"] = {"requests": k["requests"], "failed": k["requests"] - k["ok"],
+                            "retried": k.get("retries", 0)}
+# The figures above in one file, for the results page (scripts/results_page.py record fleet).
+json.dump(summary, open(f"{out}/fleet.json", "w"), indent=1)
+print(f"{out}/fleet.json")
 PY

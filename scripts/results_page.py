@@ -17,6 +17,7 @@ The suites and the files they write:
   sessions  scripts/bench_sessions.sh OUT      OUT/sessions.json
   hostile   scripts/hostile.sh OUT             OUT/hostile.json
   auth      scripts/bench_auth.sh OUT          OUT/auth.json
+  fleet     scripts/bench_fleet.sh OUT         OUT/fleet.json
 """
 import argparse
 import datetime
@@ -31,12 +32,11 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 RUNS = ROOT / "docs" / "runs"
 PAGE = ROOT / "docs" / "results.md"
-SUITES = ("accuracy", "scale", "server", "sessions", "hostile", "auth")
+SUITES = ("accuracy", "scale", "server", "sessions", "hostile", "auth", "fleet")
 # Suites whose figures are not yet kept as runs here: their scripts print them, and the
 # figures last measured are in docs/history.md and git.
 NOT_RECORDED = {
     "latency floor": "scripts/bench_latency.sh",
-    "fleet": "scripts/bench_fleet.sh",
     "the paper's experiments (eta)": "scripts/experiments.sh",
 }
 
@@ -315,10 +315,39 @@ def auth_section(run):
                        rows)
 
 
+def fleet_section(run):
+    out = ["## Fleet", "", provenance(run), "",
+           f"The broker and its workers on one machine's two cores, medians of {run['rounds']} "
+           "rounds; 8 clients for throughput (answered requests per second), one client for "
+           "latency. *Outside*: each request's latency less its server time (network, broker, "
+           "client).", ""]
+    rows = []
+    for label, t in run["throughput_rps"].items():
+        rows.append([label, f"{t['direct']:.1f}", f"{t['broker1']:.1f}", f"{t['broker2']:.1f}",
+                     f"{t['broker2'] / t['broker1']:.2f}", f"{t['direct2']:.1f}", t["errors"]])
+    out += table(["8 clients", "direct, 1 thread", "broker + 1 worker", "broker + 2 workers",
+                  "2 workers / 1", "direct, --threads 2", "errors"], rows)
+    out += [""]
+    rows = []
+    for label, c in run["one_client"].items():
+        rows.append([label, f"{c['direct_p50']:.2f} / {c['broker_p50']:.2f}",
+                     f"{c['broker_outside'] - c['direct_outside']:+.2f}",
+                     f"{c['direct_p99']:.2f} / {c['broker_p99']:.2f}"])
+    out += table(["1 client", "p50 ms direct / broker", "the broker adds, ms (outside)",
+                  "p99 ms direct / broker"], rows)
+    py, k = run["python_one_frame"], run["worker_killed"]
+    out += ["", f"The Python client on one frame, direct: p50 {py['python_p50']:.2f} ms against "
+                f"C++ {py['cpp_p50']:.2f} ms. A worker killed (SIGKILL) mid-run under 8 clients "
+                f"with retries: {k['requests']} requests, {k['failed']} failed, {k['retried']} "
+                "retried."]
+    return out
+
+
 # ---------------------------------------------------------------- page
 
 RENDER = {"accuracy": accuracy_section, "scale": scale_section, "server": server_section,
-          "sessions": sessions_section, "hostile": hostile_section, "auth": auth_section}
+          "sessions": sessions_section, "hostile": hostile_section, "auth": auth_section,
+          "fleet": fleet_section}
 
 # ---------------------------------------------------------------- README's headline figures
 
