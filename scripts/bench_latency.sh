@@ -65,8 +65,8 @@ echo "== servers, --threads 2, $seconds s per run"
 measure "$base_build" base
 measure "$root/build" current
 
-/usr/bin/python3 - "$top" "$floor_ms" <<'PY'
-import json, sys
+/usr/bin/python3 - "$top" "$floor_ms" "$("$client" --version)" "$base_rev" <<'PY'
+import json, re, sys
 top, floor = sys.argv[1], float(sys.argv[2])
 runs = ("one_client_jpeg", "one_client_features", "eight_clients")
 r = {(s, n): json.load(open(f"{top}/{s}/{n}.json")) for s in ("base", "current") for n in runs}
@@ -79,4 +79,17 @@ for n in runs:
           f"{c['latency_ms']['p99']:7.1f}   {c['throughput_rps'] / b['throughput_rps']:12.2f}"
           f"   {c['latency_ms']['p50'] / floor:9.2f}")
 print(f"floor (detectAndCompute, 1 thread, same frames): {floor:.2f} ms")
+# The figures above in one file, for the results page (scripts/results_page.py record latency).
+stages = []
+for line in open(f"{top}/floor.txt"):
+    m = re.match(r"^(.+?)\s+([0-9.]+)\s+([0-9.]+)\s+([0-9.]+)$", line.rstrip())
+    if m and not line.startswith("stage"):
+        stages.append({"stage": m.group(1).strip(), "p50_ms": float(m.group(2)),
+                       "p99_ms": float(m.group(3)), "over_floor": float(m.group(4))})
+summary = {"version": sys.argv[3], "base": sys.argv[4], "floor_ms": floor, "stages": stages,
+           "runs": {n: {s: {"throughput_rps": r[(s, n)]["throughput_rps"],
+                            "latency_ms": r[(s, n)]["latency_ms"]} for s in ("base", "current")}
+                    for n in runs}}
+json.dump(summary, open(f"{top}/latency.json", "w"), indent=1)
+print(f"{top}/latency.json")
 PY
