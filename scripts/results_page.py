@@ -16,6 +16,7 @@ The suites and the files they write:
   server    scripts/bench_server.sh OUT        OUT/server.json
   sessions  scripts/bench_sessions.sh OUT      OUT/sessions.json
   hostile   scripts/hostile.sh OUT             OUT/hostile.json
+  latency   scripts/bench_latency.sh OUT       OUT/latency.json
   auth      scripts/bench_auth.sh OUT          OUT/auth.json
   fleet     scripts/bench_fleet.sh OUT         OUT/fleet.json
 """
@@ -32,11 +33,10 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 RUNS = ROOT / "docs" / "runs"
 PAGE = ROOT / "docs" / "results.md"
-SUITES = ("accuracy", "scale", "server", "sessions", "hostile", "auth", "fleet")
+SUITES = ("accuracy", "scale", "server", "latency", "sessions", "hostile", "auth", "fleet")
 # Suites whose figures are not yet kept as runs here: their scripts print them, and the
 # figures last measured are in docs/history.md and git.
 NOT_RECORDED = {
-    "latency floor": "scripts/bench_latency.sh",
     "the paper's experiments (eta)": "scripts/experiments.sh",
 }
 
@@ -297,6 +297,28 @@ def hostile_section(run):
                         "peak RSS, MB", "server"], rows)
 
 
+def latency_section(run):
+    out = ["## Latency against the floor", "", provenance(run), "",
+           f"Every stage of a JPEG request on the 200-location Gardens Point map (`day_right` "
+           f"frames, `latency_floor`) beside *the floor*: plain OpenCV SIFT `detectAndCompute` "
+           f"on one thread over the same working frames, {run['floor_ms']:.2f} ms p50 in this "
+           "run. `[pool]`: OpenCV's loops on the engine's pool of 2.", ""]
+    rows = [[s["stage"], f"{s['p50_ms']:.2f}", f"{s['p99_ms']:.2f}", f"{s['over_floor']:.2f}"]
+            for s in run["stages"]]
+    out += table(["stage", "p50 ms", "p99 ms", "p50 / floor"], rows)
+    out += ["", f"The server against the build of `{run['base']}` (each with --threads 2, its "
+                "own map, one run after the other):", ""]
+    rows = []
+    for name, r in run["runs"].items():
+        b, c = r["base"], r["current"]
+        rows.append([name, f"{b['latency_ms']['p50']:.1f} / {c['latency_ms']['p50']:.1f}",
+                     f"{b['latency_ms']['p99']:.1f} / {c['latency_ms']['p99']:.1f}",
+                     f"{c['throughput_rps'] / b['throughput_rps']:.2f}",
+                     f"{c['latency_ms']['p50'] / run['floor_ms']:.2f}"])
+    return out + table(["run", "p50 ms base / now", "p99 ms base / now", "throughput now / base",
+                        "p50 / floor"], rows)
+
+
 def auth_section(run):
     out = ["## What CURVE costs", "", provenance(run), "",
            f"The same requests with authentication off and on (`--auth true`), in alternating rounds "
@@ -346,7 +368,7 @@ def fleet_section(run):
 # ---------------------------------------------------------------- page
 
 RENDER = {"accuracy": accuracy_section, "scale": scale_section, "server": server_section,
-          "sessions": sessions_section, "hostile": hostile_section, "auth": auth_section,
+          "sessions": sessions_section, "hostile": hostile_section, "auth": auth_section, "latency": latency_section,
           "fleet": fleet_section}
 
 # ---------------------------------------------------------------- README's headline figures
