@@ -11,6 +11,7 @@
 #include "common/features/sift_describer.h"
 #include "common/features/sift_detector.h"
 #include "common/image/image_codec.h"
+#include "common/util/file_io.h"
 
 namespace sceneloc {
 

@@ -5,12 +5,9 @@
 
 #include <cstdint>
 #include <cstring>
-#include <filesystem>
-#include <fstream>
 #include <memory>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
-#include <system_error>
 
 namespace sceneloc {
 namespace {
@@ -298,35 +295,6 @@ StatusOr<std::string> EncodePng(const cv::Mat& image) {
   }
   bytes.resize(size);
   return bytes;
-}
-
-StatusOr<std::string> ReadFileBytes(const std::string& path) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) {
-    return NotFound("'" + path + "' is not a readable file");
-  }
-  std::ifstream in(path, std::ios::binary);
-  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad() || !in.is_open()) return IoError("cannot read '" + path + "'");
-  return bytes;
-}
-
-Status WriteFileBytes(const std::string& path, std::string_view bytes) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    out.close();
-    if (!out) return IoError("cannot write '" + path + "' (its temporary '" + tmp + "')");
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::error_code ignored;
-    std::filesystem::remove(tmp, ignored);
-    return IoError("cannot write '" + path + "': " + ec.message());
-  }
-  return Status::Ok();
 }
 
 }  // namespace sceneloc

@@ -50,11 +50,4 @@ StatusOr<std::string> EncodeJpeg(const cv::Mat& image, int quality);
 // PNG of a CV_8UC3 (BGR) or CV_8UC1 image.
 StatusOr<std::string> EncodePng(const cv::Mat& image);
 
-// Reads a whole file; NotFound when it is missing or not a regular file, IoError otherwise.
-StatusOr<std::string> ReadFileBytes(const std::string& path);
-
-// Writes `bytes` to `path` through a temporary file beside it and a rename, so a reader never
-// sees half an image.
-Status WriteFileBytes(const std::string& path, std::string_view bytes);
-
 }  // namespace sceneloc

@@ -12,17 +12,10 @@
 #include <vector>
 
 #include "common/map/payload_archive.h"
+#include "common/util/file_io.h"  // WriteFileAtomically, OsError
 #include "common/util/status.h"
 
 namespace sceneloc::map_io_internal {
-
-// IoError "<what> '<path>': <strerror(error)>".
-Status OsError(const std::string& what, const std::string& path, int error);
-
-// Writes `bytes` to `path + ".tmp.<pid>"`, fsyncs it, renames it over `path` and fsyncs
-// the folder. On failure the temporary file is removed and the status (IoError) names
-// the path and the OS error.
-Status WriteFileAtomically(const std::string& path, const std::string& bytes);
 
 // Reads up to `n` bytes from `fd`'s current position (fewer if the file ends first).
 // `path` names the file in errors.

@@ -32,7 +32,6 @@ using map_io_internal::kPayloadBytesOffset;
 using map_io_internal::kPayloadCrcOffset;
 using map_io_internal::Label;
 using map_io_internal::MemorySource;
-using map_io_internal::OsError;
 using map_io_internal::ParseHeader;
 using map_io_internal::PayloadReader;
 using map_io_internal::PayloadWriter;
@@ -145,7 +144,7 @@ Status SaveMap(const Map& map, const std::string& path, MapFileInfo* info) {
     return InvalidArgument("refusing to save an invalid map to '" + path + "': " + valid.message());
   }
   const std::string bytes = SerializeMap(map);
-  SCENELOC_RETURN_IF_ERROR(map_io_internal::WriteFileAtomically(path, bytes));
+  SCENELOC_RETURN_IF_ERROR(WriteFileAtomically(path, bytes));
   if (info != nullptr) {
     info->format_version = kMapFormatVersion;
     info->payload_bytes = GetU64(bytes.data() + kPayloadBytesOffset);

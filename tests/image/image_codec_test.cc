@@ -3,7 +3,6 @@
 #include <gtest/gtest.h>
 
 #include <cstdint>
-#include <filesystem>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -238,23 +237,6 @@ TEST(ImageCodecTest, EncodingRefusesWhatItCannotWrite) {
   EXPECT_FALSE(EncodeJpeg(Scene(), 0).ok());
   EXPECT_FALSE(EncodeJpeg(Scene(), 101).ok());
   EXPECT_FALSE(EncodePng(cv::Mat(10, 10, CV_8UC4, cv::Scalar::all(0))).ok());
-}
-
-TEST(ImageCodecTest, FilesAreWrittenWholeAndReadBack) {
-  const std::filesystem::path dir = std::filesystem::path(testing::TempDir()) / "image_codec";
-  std::filesystem::create_directories(dir);
-  const std::string path = (dir / "frame.jpg").string();
-  const std::string bytes("abc\0def", 7);
-  ASSERT_TRUE(WriteFileBytes(path, bytes).ok());
-  auto back = ReadFileBytes(path);
-  ASSERT_TRUE(back.ok());
-  EXPECT_EQ(*back, bytes);
-  EXPECT_FALSE(std::filesystem::exists(path + ".tmp"));
-  auto missing = ReadFileBytes((dir / "nothing.jpg").string());
-  ASSERT_FALSE(missing.ok());
-  EXPECT_EQ(missing.status().code(), StatusCode::kNotFound);
-  EXPECT_FALSE(ReadFileBytes(dir.string()).ok());  // a folder is not a file
-  EXPECT_FALSE(WriteFileBytes((dir / "no" / "such" / "folder.jpg").string(), "x").ok());
 }
 
 }  // namespace

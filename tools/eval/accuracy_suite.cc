@@ -11,6 +11,7 @@
 #include "common/features/extractor.h"
 #include "common/image/image_codec.h"
 #include "common/training/trainer.h"
+#include "common/util/file_io.h"
 #include "common/util/image_folder.h"
 #include "common/util/thread_pool.h"
 #include "common/util/timer.h"
@@ -128,7 +129,7 @@ StatusOr<std::vector<std::string>> ChangedQueries(const SuiteSet& set,
     SCENELOC_ASSIGN_OR_RETURN(const cv::Mat image, ReadImageFile(paths[i]));
     const auto [changed, quality] = Change(image, set.change, static_cast<uint32_t>(i));
     SCENELOC_ASSIGN_OR_RETURN(const std::string jpeg, EncodeJpeg(changed, quality));
-    SCENELOC_RETURN_IF_ERROR(WriteFileBytes(target.string(), jpeg));
+    SCENELOC_RETURN_IF_ERROR(WriteFileAtomically(target.string(), jpeg));
     SCENELOC_RETURN_IF_ERROR(WriteStamp(stamp_path, stamp));
   }
   return out;

@@ -5,6 +5,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "common/image/image_codec.h"
+#include "common/util/file_io.h"
 
 namespace sceneloc {
 namespace {
@@ -69,7 +70,10 @@ Status WriteReliabilityDiagram(const std::vector<ReliabilityPanel>& panels,
     return IoError("cannot write '" + path + "': the reliability diagram is a PNG; name it *.png");
   }
   SCENELOC_ASSIGN_OR_RETURN(const std::string png, EncodePng(image));
-  return WriteFileBytes(path, png);
+  if (Status written = WriteFileAtomically(path, png); !written.ok()) {
+    return IoError("cannot write '" + path + "': " + written.message());
+  }
+  return Status::Ok();
 }
 
 }  // namespace sceneloc
