@@ -19,6 +19,7 @@ The suites and the files they write:
   latency   scripts/bench_latency.sh OUT       OUT/latency.json
   auth      scripts/bench_auth.sh OUT          OUT/auth.json
   fleet     scripts/bench_fleet.sh OUT         OUT/fleet.json
+  experiments  scripts/experiments.sh OUT      OUT/experiments.json (and its two plots)
 """
 import argparse
 import datetime
@@ -33,13 +34,10 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 RUNS = ROOT / "docs" / "runs"
 PAGE = ROOT / "docs" / "results.md"
-SUITES = ("accuracy", "scale", "server", "latency", "sessions", "hostile", "auth", "fleet")
-# Suites whose figures are not yet kept as runs here: their scripts print them, and the
-# figures last measured are in docs/history.md and git.
-NOT_RECORDED = {
-    "the paper's experiments (eta; its last CSVs and plots: [experiments/tables.md]"
-    "(experiments/tables.md))": "scripts/experiments.sh",
-}
+SUITES = ("accuracy", "scale", "server", "latency", "sessions", "hostile", "auth", "fleet",
+          "experiments")
+# Plots a suite writes beside its JSON, kept with the run.
+PLOTS = {"scale": ("scale.png",), "experiments": ("eta_sweep.png", "eta_opt_vs_size.png")}
 
 
 # ---------------------------------------------------------------- record
@@ -92,9 +90,10 @@ def record(suite, path, command, commit):
         "command": command or f"(from {path})",
     }
     RUNS.mkdir(parents=True, exist_ok=True)
-    plot = Path(path).with_name(f"{suite}.png")
-    if suite == "scale" and plot.exists():  # bench_scale's plot, beside its JSON
-        shutil.copyfile(plot, RUNS / plot.name)
+    for name in PLOTS.get(suite, ()):
+        plot = Path(path).with_name(name)
+        if plot.exists():
+            shutil.copyfile(plot, RUNS / name)
     (RUNS / f"{suite}.json").write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
     print(f"results_page: kept {suite} in {RUNS / (suite + '.json')}; now render the page")
 
@@ -366,11 +365,43 @@ def fleet_section(run):
     return out
 
 
+# ---------------------------------------------------------------- the paper's experiments
+
+def eta_name(eta):
+    return "all" if int(eta) == 0 else str(int(eta))
+
+
+def experiments_section(run):
+    out = ["## The paper's experiments", "", provenance(run), "",
+           "The η sweep (the paper's Fig. 5): a `day_left` map keeping the best η landmarks per "
+           "image, `day_right` queries, single frames; the FLANN voting baseline on the same "
+           "features beside it. Match time: the median of the matching step alone.", ""]
+    rows = [[eta_name(r["eta"]), f"{r['landmarks']:.0f}", f"{r['rate1']:.2f}",
+             f"{r['rate2']:.2f}", f"{r['rate3']:.2f}", f"{r['confidence']:.2f}",
+             f"{r['match_ms_median']:.1f}", f"{r['baseline_rate2']:.2f}"] for r in run["eta"]]
+    out += table(["η", "landmarks", "±1", "±2", "±3", "mean confidence", "match ms",
+                  "baseline ±2"], rows)
+    out += ["", "![the eta sweep](runs/eta_sweep.png)", "",
+            "η against the environment's size (Fig. 6): the first N images of the tour and "
+            "their queries, ±2 per η; η_opt is the smallest η with the best ±2.", ""]
+    etas = sorted({r["eta"] for r in run["size"]}, key=lambda e: (e == 0, e))
+    rows = []
+    for n in sorted({r["locations"] for r in run["size"]}):
+        at = {r["eta"]: r for r in run["size"] if r["locations"] == n}
+        best = max(at[e]["rate2"] for e in etas if e in at)
+        opt = next(e for e in etas if e in at and at[e]["rate2"] == best)
+        rows.append([f"{n:.0f}"] + [f2(at[e]["rate2"]) if e in at else "–" for e in etas]
+                    + [eta_name(opt), f2(at[etas[0]]["baseline_rate2"]) if etas[0] in at else "–"])
+    out += table(["locations"] + [f"η {eta_name(e)}" for e in etas] + ["η_opt", "baseline ±2"],
+                 rows)
+    return out + ["", "![eta_opt against the size](runs/eta_opt_vs_size.png)"]
+
+
 # ---------------------------------------------------------------- page
 
 RENDER = {"accuracy": accuracy_section, "scale": scale_section, "server": server_section,
           "sessions": sessions_section, "hostile": hostile_section, "auth": auth_section, "latency": latency_section,
-          "fleet": fleet_section}
+          "fleet": fleet_section, "experiments": experiments_section}
 
 # ---------------------------------------------------------------- README's headline figures
 
@@ -479,12 +510,10 @@ def render():
         if suite in runs:
             out += RENDER[suite](runs[suite]) + [""]
     missing = [s for s in SUITES if s not in runs]
-    out += ["## Not yet kept as runs", "",
-            "These suites print their figures but have no run in `docs/runs/` yet; their "
-            "last figures and the reasons behind them are in [history.md](history.md).", ""]
-    out += [f"- {name}: `{script}`" for name, script in NOT_RECORDED.items()]
-    out += [f"- {s}: `{s}` has no run kept yet" for s in missing]
-    return "\n".join(out) + "\n"
+    if missing:
+        out += ["## Not yet kept as runs", ""]
+        out += [f"- {s}: no run in `docs/runs/` yet" for s in missing]
+    return "\n".join(out).rstrip("\n") + "\n"
 
 
 def main():
