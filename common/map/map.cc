@@ -377,8 +377,9 @@ void Map::Finalize() {
                    &local_residual_norm);
     }
   }
-  inverted_file = has_place_index() ? BuildInvertedFile(place_index, image_offsets, image_landmarks)
-                                    : InvertedFile();
+  inverted_file = has_place_index()
+                      ? BuildInvertedFile(place_index, image_offsets, image_landmarks, local_mean)
+                      : InvertedFile();
 }
 
 void ProjectBlock(const DescriptorMatrix& means,
@@ -425,8 +426,9 @@ size_t Map::MemoryBytes() const {
            VectorBytes(p.holistic.mean) + VectorBytes(p.holistic.axes) +
            VectorBytes(p.holistic.projected) + VectorBytes(p.holistic.residual);
   const InvertedFile& f = inverted_file;
-  bytes +=
-      VectorBytes(f.offsets) + VectorBytes(f.location) + VectorBytes(f.weight) + VectorBytes(f.idf);
+  bytes += VectorBytes(f.offsets) + VectorBytes(f.location) + VectorBytes(f.signature) +
+           VectorBytes(f.idf) + VectorBytes(f.location_scale) + VectorBytes(f.thresholds) +
+           sizeof(f.projection);
   return bytes + VectorBytes(local_mean_sqnorm);
 }
 

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <random>
 #include <string>
 
 namespace sceneloc {
@@ -94,50 +96,137 @@ Status ValidatePlaceIndex(const PlaceIndex& index, size_t num_landmarks, size_t 
   return ValidateProjection(index.holistic, num_locations, grid);
 }
 
-InvertedFile BuildInvertedFile(const PlaceIndex& index, const std::vector<uint32_t>& image_offsets,
-                               const std::vector<uint32_t>& image_landmarks) {
+SignatureProjection MakeSignatureProjection() {
+  // Random signs from a fixed seed (std::mt19937's sequence is specified), then Gram-Schmidt
+  // in double: the rows are orthonormal, each a random direction.
+  std::mt19937 rng(20261207);
+  Eigen::Matrix<double, kSignatureBits, kDescriptorSize, Eigen::RowMajor> axes;
+  for (int r = 0; r < kSignatureBits; ++r) {
+    for (int c = 0; c < kDescriptorSize; ++c) axes(r, c) = (rng() & 1u) != 0 ? 1.0 : -1.0;
+    for (int q = 0; q < r; ++q) axes.row(r) -= axes.row(r).dot(axes.row(q)) * axes.row(q);
+    axes.row(r).normalize();
+  }
+  return axes.cast<float>();
+}
+
+namespace {
+
+uint64_t SignatureOf(const float* projected, const float* thresholds) {
+  uint64_t bits = 0;
+  for (int k = 0; k < kSignatureBits; ++k) {
+    bits |= static_cast<uint64_t>(projected[k] > thresholds[k]) << k;
+  }
+  return bits;
+}
+
+using ProjectedRows = Eigen::Matrix<float, Eigen::Dynamic, kSignatureBits, Eigen::RowMajor>;
+
+}  // namespace
+
+InvertedFile BuildInvertedFile(
+    const PlaceIndex& index, const std::vector<uint32_t>& image_offsets,
+    const std::vector<uint32_t>& image_landmarks,
+    const Eigen::Matrix<uint8_t, Eigen::Dynamic, kDescriptorSize, Eigen::RowMajor>& means) {
   InvertedFile file;
   const size_t words = static_cast<size_t>(index.vocabulary.num_words());
   const size_t locations = image_offsets.empty() ? 0 : image_offsets.size() - 1;
-  // Each location's words with their counts, sorted by word.
-  std::vector<std::vector<std::pair<uint32_t, float>>> bags(locations);
-  std::vector<uint32_t> having(words, 0);  // locations with each word
-  std::vector<uint32_t> words_of;
-  for (size_t l = 0; l < locations; ++l) {
-    words_of.clear();
-    for (uint32_t k = image_offsets[l]; k < image_offsets[l + 1]; ++k) {
-      words_of.push_back(index.landmark_word[image_landmarks[k]]);
+  const size_t landmarks = static_cast<size_t>(means.rows());
+  const std::vector<uint32_t>& word_of = index.landmark_word;
+
+  // Word by word (a word's landmarks gathered by a counting sort): their projections, the
+  // median on each axis, and their signatures. A word at a time keeps the projections of a
+  // million landmarks (256 MB) from being held at once.
+  file.projection = MakeSignatureProjection();
+  std::vector<uint32_t> first(words + 1, 0);
+  for (uint32_t w : word_of) ++first[w + 1];
+  for (size_t w = 0; w < words; ++w) first[w + 1] += first[w];
+  std::vector<uint32_t> members(landmarks);
+  {
+    std::vector<uint32_t> fill(first.begin(), first.end() - 1);
+    for (size_t g = 0; g < landmarks; ++g) members[fill[word_of[g]]++] = static_cast<uint32_t>(g);
+  }
+  file.thresholds.assign(words * kSignatureBits, 0.0f);
+  std::vector<uint64_t> landmark_signature(landmarks);
+  DescriptorMatrix values;
+  ProjectedRows projected;
+  std::vector<float> column;
+  for (size_t w = 0; w < words; ++w) {
+    const auto count = static_cast<Eigen::Index>(first[w + 1] - first[w]);
+    if (count == 0) continue;
+    values.resize(count, kDescriptorSize);
+    for (Eigen::Index i = 0; i < count; ++i) {
+      values.row(i) =
+          means.row(members[first[w] + static_cast<size_t>(i)]).cast<float>() * (1.0f / 255.0f);
     }
-    std::sort(words_of.begin(), words_of.end());
-    for (size_t i = 0; i < words_of.size();) {
-      size_t j = i;
-      while (j < words_of.size() && words_of[j] == words_of[i]) ++j;
-      bags[l].push_back({words_of[i], static_cast<float>(j - i)});
-      ++having[words_of[i]];
-      i = j;
+    projected.noalias() = values * file.projection.transpose();
+    float* thresholds = &file.thresholds[w * kSignatureBits];
+    for (int k = 0; k < kSignatureBits; ++k) {
+      column.resize(static_cast<size_t>(count));
+      for (Eigen::Index i = 0; i < count; ++i) column[static_cast<size_t>(i)] = projected(i, k);
+      const auto middle = column.begin() + count / 2;
+      std::nth_element(column.begin(), middle, column.end());
+      thresholds[k] = *middle;
+    }
+    for (Eigen::Index i = 0; i < count; ++i) {
+      landmark_signature[members[first[w] + static_cast<size_t>(i)]] =
+          SignatureOf(projected.row(i).data(), thresholds);
     }
   }
+
+  // The occurrences, word by word; per word, the locations having it; per location, its
+  // tf-idf vector's norm.
+  file.offsets.assign(words + 1, 0);
+  std::vector<uint32_t> having(words, 0), last(words, UINT32_MAX);
+  for (size_t l = 0; l < locations; ++l) {
+    for (uint32_t k = image_offsets[l]; k < image_offsets[l + 1]; ++k) {
+      const uint32_t w = word_of[image_landmarks[k]];
+      ++file.offsets[w + 1];
+      if (last[w] != l) ++having[w];
+      last[w] = static_cast<uint32_t>(l);
+    }
+  }
+  for (size_t w = 0; w < words; ++w) file.offsets[w + 1] += file.offsets[w];
   file.idf.assign(words, 0.0f);
   for (size_t w = 0; w < words; ++w) {
     if (having[w] > 0) {
       file.idf[w] = static_cast<float>(std::log(static_cast<double>(locations) / having[w]));
     }
   }
-  file.offsets.assign(words + 1, 0);
-  for (size_t w = 0; w < words; ++w) file.offsets[w + 1] = file.offsets[w] + having[w];
   file.location.resize(file.offsets.back());
-  file.weight.resize(file.offsets.back());
+  file.signature.resize(file.offsets.back());
+  file.location_scale.assign(locations, 0.0f);
   std::vector<uint32_t> fill(file.offsets.begin(), file.offsets.end() - 1);
+  std::vector<uint32_t> words_here;
   for (size_t l = 0; l < locations; ++l) {
-    double norm = 0;
-    for (const auto& [w, count] : bags[l]) norm += std::pow(count * file.idf[w], 2.0);
-    const float scale = norm > 0 ? static_cast<float>(1.0 / std::sqrt(norm)) : 0.0f;
-    for (const auto& [w, count] : bags[l]) {
+    words_here.clear();
+    for (uint32_t k = image_offsets[l]; k < image_offsets[l + 1]; ++k) {
+      const uint32_t g = image_landmarks[k], w = word_of[g];
       file.location[fill[w]] = static_cast<uint32_t>(l);
-      file.weight[fill[w]++] = count * file.idf[w] * scale;
+      file.signature[fill[w]++] = landmark_signature[g];
+      words_here.push_back(w);
     }
+    std::sort(words_here.begin(), words_here.end());
+    double norm = 0;
+    for (size_t i = 0; i < words_here.size();) {
+      size_t j = i;
+      while (j < words_here.size() && words_here[j] == words_here[i]) ++j;
+      norm += std::pow(static_cast<double>(j - i) * file.idf[words_here[i]], 2.0);
+      i = j;
+    }
+    if (norm > 0) file.location_scale[l] = static_cast<float>(1.0 / std::sqrt(norm));
   }
   return file;
+}
+
+std::vector<uint64_t> Signatures(const InvertedFile& file, const DescriptorMatrix& descriptors,
+                                 const std::vector<uint32_t>& words) {
+  const ProjectedRows projected = descriptors * file.projection.transpose();
+  std::vector<uint64_t> out(words.size());
+  for (size_t i = 0; i < words.size(); ++i) {
+    out[i] = SignatureOf(projected.row(static_cast<Eigen::Index>(i)).data(),
+                         &file.thresholds[static_cast<size_t>(words[i]) * kSignatureBits]);
+  }
+  return out;
 }
 
 namespace {

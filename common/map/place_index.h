@@ -78,16 +78,43 @@ struct PlaceIndex {
 Status ValidatePlaceIndex(const PlaceIndex& index, size_t num_landmarks, size_t num_locations,
                           const HolisticGrid& grid);
 
-// The inverted file of an index: for each word, the locations whose landmarks (G_l) have
-// it, with its tf-idf weight there; every location's weights have unit norm.
+// A Hamming embedding of the visual words (Jegou, Douze & Schmid, "Hamming embedding and
+// weak geometric consistency for large scale image search", ECCV 2008): a word is a coarse
+// cell of descriptor space, so two descriptors that share one may still be far apart. Each
+// descriptor also gets a 64-bit signature: its projection on 64 fixed random orthonormal
+// axes, each bit set where the value passes the median of the word's landmarks on that
+// axis. Two descriptors of one word whose signatures differ in few bits are near; a word
+// match counts only within a Hamming distance (MatchOptions::place_hamming_max).
+inline constexpr int kSignatureBits = 64;
+using SignatureProjection = Eigen::Matrix<float, kSignatureBits, kDescriptorSize, Eigen::RowMajor>;
+
+// The projection's axes: a fixed seed's random signs, orthonormalised (the same on every
+// machine: integer draws and IEEE arithmetic).
+SignatureProjection MakeSignatureProjection();
+
+// The inverted file of an index: for each word, every occurrence of one of its landmarks
+// in a location's G_l, with the landmark's signature. Derived when a map is finalised (from
+// the landmarks' words and mean descriptors), so maps of every format with a place index
+// have it.
 struct InvertedFile {
-  std::vector<uint32_t> offsets;  // words + 1
-  std::vector<uint32_t> location;
-  std::vector<float> weight;
-  std::vector<float> idf;  // per word: log(locations / locations with it); 0 if none
+  std::vector<uint32_t> offsets;    // words + 1
+  std::vector<uint32_t> location;   // per occurrence
+  std::vector<uint64_t> signature;  // per occurrence: its landmark's
+  std::vector<float> idf;           // per word: log(locations / locations with it); 0 if none
+  // Per location: 1 / the norm of its tf-idf vector (0 for a location without landmarks).
+  std::vector<float> location_scale;
+  SignatureProjection projection;
+  std::vector<float> thresholds;  // words x kSignatureBits: the per-word medians
 };
-InvertedFile BuildInvertedFile(const PlaceIndex& index, const std::vector<uint32_t>& image_offsets,
-                               const std::vector<uint32_t>& image_landmarks);
+// `means`: the landmarks' mean local descriptors as bytes (Map::local_mean).
+InvertedFile BuildInvertedFile(
+    const PlaceIndex& index, const std::vector<uint32_t>& image_offsets,
+    const std::vector<uint32_t>& image_landmarks,
+    const Eigen::Matrix<uint8_t, Eigen::Dynamic, kDescriptorSize, Eigen::RowMajor>& means);
+
+// The signature of each row of `descriptors` (values, as FeatureSet::local) in its word.
+std::vector<uint64_t> Signatures(const InvertedFile& file, const DescriptorMatrix& descriptors,
+                                 const std::vector<uint32_t>& words);
 
 // The coarse cell of each row of `descriptors`: the nearest of the first vocabulary.coarse
 // centroids (which is all the training's first level has).

@@ -203,19 +203,18 @@ FeatureSet ScaledToMapFrame(const FeatureSet& features, const Map& map) {
   return scaled;
 }
 
-// Locations whose holistic distance the coarse stage measures exactly besides its shortlist
-// (the nearest by the approximate distance: the look-alikes the confidence weighs the answer
-// against) and its scope: kHolisticSample evenly spaced ones, the typical distance the
-// z-scores are read against, which the approximation would bias.
-constexpr int kHolisticSample = 256;
-
 struct QueryHolistic {
   std::vector<float> distance;  // to every location; empty without holistic evidence
   std::vector<float> z;         // RobustZ of it
 };
 
-// The holistic evidence of the query: exact for the whole map, or with the coarse stage
-// exact where it matters (above) and approximate elsewhere.
+// The holistic evidence of the query: exact for the whole map; with the coarse stage, exact
+// over the scope (and the shortlist it measured) and approximate elsewhere. The z-scores are
+// read against the locations the query is scored against, the whole map or the scope: the
+// fine stage then sees the query among a few hundred locations, as on the maps the
+// confidence was calibrated on, whatever the map's size. (Against an even sample of a big
+// map, its typical place, the places a query resembles all stand out and the confidence
+// rises with the map: docs/history.md "Maps that grow".)
 QueryHolistic MeasureHolistic(const FeatureSet& features, const Map& map,
                               const LandmarkScope& scope, const PlaceSearch* search,
                               ThreadPool* pool) {
@@ -228,20 +227,10 @@ QueryHolistic MeasureHolistic(const FeatureSet& features, const Map& map,
   }
   if (search->holistic.empty()) return h;
   h.distance = search->holistic;
-  const int n = map.num_images();
-  std::vector<int> exact = scope.locations();
-  const int samples = std::min(n, kHolisticSample);
-  for (int i = 0; i < samples; ++i)
-    exact.push_back(static_cast<int>(static_cast<int64_t>(i) * n / samples));
-  std::sort(exact.begin(), exact.end());
-  exact.erase(std::unique(exact.begin(), exact.end()), exact.end());
+  const std::vector<int>& exact = scope.locations();
   const std::vector<float> measured = HolisticDistancesTo(features, map, exact, max_shift, pool);
   for (size_t i = 0; i < exact.size(); ++i) h.distance[exact[i]] = measured[i];
-  std::vector<float> reference;
-  for (int i = 0; i < samples; ++i) {
-    reference.push_back(h.distance[static_cast<size_t>(static_cast<int64_t>(i) * n / samples)]);
-  }
-  h.z = RobustZ(h.distance, reference);
+  h.z = RobustZ(h.distance, measured);
   return h;
 }
 

@@ -126,6 +126,10 @@ struct MatchOptions {
   // many locations as 24 + 24 did before picks were distinct, and find the place more often).
   bool use_place_index = true;
   int place_word_top = 28;
+  // A word match between a query feature and a landmark counts only when their signatures
+  // (a Hamming embedding, place_index.h) differ in at most this many of 64 bits; 0 = every
+  // word match counts (plain tf-idf). Measured: docs/history.md "Maps that grow".
+  int place_hamming_max = 32;
   int place_holistic_top = 4;
   int place_expand = 3;
   // Picks are distinct places: a location already among the candidates (within

@@ -74,6 +74,11 @@ SettingTable MatchSettings(MatchOptions* o) {
       Setting("matching", "place_word_top", &o->place_word_top)
           .Range(0, 100000)
           .Help("locations picked by shared visual words"),
+      Setting("matching", "place_hamming_max", &o->place_hamming_max)
+          .Range(0, 64)
+          .Unit("bits")
+          .Help(
+              "a shared word counts if the signatures differ in at most this many of 64 (0 = any)"),
       Setting("matching", "place_holistic_top", &o->place_holistic_top)
           .Range(0, 100000)
           .Help("locations picked by approximate holistic distance"),

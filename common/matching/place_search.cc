@@ -1,6 +1,8 @@
 #include "common/matching/place_search.h"
 
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <limits>
 #include <numeric>
 
@@ -36,15 +38,19 @@ bool UsesPlaceSearch(const Map& map, const MatchOptions& options) {
   return options.use_place_index && map.has_place_index();
 }
 
-std::vector<float> WordScores(const FeatureSet& features, const Map& map, ThreadPool* pool) {
+std::vector<float> WordScores(const FeatureSet& features, const Map& map, int hamming_max,
+                              ThreadPool* pool) {
   std::vector<float> score(static_cast<size_t>(map.num_images()), 0.0f);
   if (features.size() == 0) return score;
-  // The features' words in blocks of kRowsPerBlock rows, the blocks spread over the pool;
-  // a row's words do not depend on the other rows, and the blocks are the same whatever the
-  // pool, so the words are too.
+  // The features' words (and signatures) in blocks of kRowsPerBlock rows, the blocks spread
+  // over the pool; a row's word does not depend on the other rows, and the blocks are the
+  // same whatever the pool, so the words are too.
   constexpr size_t kRowsPerBlock = 256;
   const size_t rows = static_cast<size_t>(features.local.rows());
+  const InvertedFile& file = map.inverted_file;
+  const bool hamming = hamming_max > 0;
   std::vector<uint32_t> words(rows);
+  std::vector<uint64_t> signatures(hamming ? rows : 0);
   const auto assign = [&](size_t first_block, size_t end_block) {
     for (size_t b = first_block; b < end_block; ++b) {
       const size_t begin = b * kRowsPerBlock, count = std::min(kRowsPerBlock, rows - begin);
@@ -52,6 +58,11 @@ std::vector<float> WordScores(const FeatureSet& features, const Map& map, Thread
                                                                static_cast<Eigen::Index>(count));
       const std::vector<uint32_t> part = AssignWords(map.place_index.vocabulary, block);
       std::copy(part.begin(), part.end(), words.begin() + static_cast<std::ptrdiff_t>(begin));
+      if (hamming) {
+        const std::vector<uint64_t> bits = Signatures(file, block, part);
+        std::copy(bits.begin(), bits.end(),
+                  signatures.begin() + static_cast<std::ptrdiff_t>(begin));
+      }
     }
   };
   const size_t blocks = (rows + kRowsPerBlock - 1) / kRowsPerBlock;
@@ -60,18 +71,39 @@ std::vector<float> WordScores(const FeatureSet& features, const Map& map, Thread
   } else {
     assign(0, blocks);
   }
-  std::sort(words.begin(), words.end());
-  const InvertedFile& file = map.inverted_file;
-  for (size_t i = 0; i < words.size();) {
-    size_t j = i;
-    while (j < words.size() && words[j] == words[i]) ++j;
-    const uint32_t w = words[i];
-    const float query_weight = static_cast<float>(j - i) * file.idf[w];
-    for (uint32_t k = file.offsets[w]; k < file.offsets[w + 1]; ++k) {
-      score[file.location[k]] += query_weight * file.weight[k];
+  if (hamming) {
+    // Each feature against the occurrences of its word: idf^2, weighted by how near the
+    // signatures are (exp(-h^2 / sigma^2), sigma = 16 of 64 bits, as Jegou et al.), within
+    // hamming_max bits.
+    std::array<float, kSignatureBits + 1> near{};
+    for (int h = 0; h <= std::min(hamming_max, kSignatureBits); ++h) {
+      near[static_cast<size_t>(h)] = std::exp(-static_cast<float>(h * h) / (16.0f * 16.0f));
     }
-    i = j;
+    for (size_t i = 0; i < rows; ++i) {
+      const uint32_t w = words[i];
+      const float idf2 = file.idf[w] * file.idf[w];
+      const uint64_t bits = signatures[i];
+      for (uint32_t k = file.offsets[w]; k < file.offsets[w + 1]; ++k) {
+        const int h = __builtin_popcountll(bits ^ file.signature[k]);
+        score[file.location[k]] += idf2 * near[static_cast<size_t>(h)];
+      }
+    }
+  } else {
+    // tf-idf: the query's count of a word times its idf, against each occurrence's idf.
+    std::sort(words.begin(), words.end());
+    for (size_t i = 0; i < words.size();) {
+      size_t j = i;
+      while (j < words.size() && words[j] == words[i]) ++j;
+      const uint32_t w = words[i];
+      const float weight = static_cast<float>(j - i) * file.idf[w] * file.idf[w];
+      for (uint32_t k = file.offsets[w]; k < file.offsets[w + 1]; ++k) {
+        score[file.location[k]] += weight;
+      }
+      i = j;
+    }
   }
+  // Each location's tf-idf vector at unit norm.
+  for (size_t l = 0; l < score.size(); ++l) score[l] *= file.location_scale[l];
   return score;
 }
 
@@ -168,7 +200,8 @@ PlaceSearch SearchPlaces(const FeatureSet& features, const Map& map, const Match
       ++picked;
     }
   };
-  pick(WordScores(features, map, pool), options.place_word_top, /*highest=*/true);
+  pick(WordScores(features, map, options.place_hamming_max, pool), options.place_word_top,
+       /*highest=*/true);
   search.holistic = ApproximateHolisticDistances(features, map, pool);
   if (!search.holistic.empty() && options.place_holistic_top > 0) {
     // The approximation ranks the nearest only roughly: its kRefine nearest are measured

@@ -5,12 +5,13 @@
 //
 // Candidates come from both kinds of evidence sceneloc fuses: the place_word_top locations
 // whose landmarks share most of the query's visual words (tf-idf votes through the inverted
-// file) and the place_holistic_top locations the query looks most like as a whole (the
-// approximate holistic distance shortlists 128, measured exactly); each with place_expand
-// locations either side, so the answer's neighbours, whose landmarks S_N and the confidence
-// read, are scored too. With place_distinct (the default) the picks are distinct places: a
-// location already among the candidates is passed over for the next best, so neighbouring
-// frames that share the query's words do not spend the picks on one stretch of the route.
+// file, each word match checked by its Hamming signature) and the place_holistic_top locations the
+// query looks most like as a whole (the approximate holistic distance shortlists 128, measured
+// exactly); each with place_expand locations either side, so the answer's neighbours, whose
+// landmarks S_N and the confidence read, are scored too. With place_distinct (the default) the
+// picks are distinct places: a location already among the candidates is passed over for the next
+// best, so neighbouring frames that share the query's words do not spend the picks on one stretch
+// of the route.
 //
 // Thread-safe: a function of its arguments.
 #pragma once
@@ -41,9 +42,11 @@ bool UsesPlaceSearch(const Map& map, const MatchOptions& options);
 PlaceSearch SearchPlaces(const FeatureSet& features, const Map& map, const MatchOptions& options,
                          ThreadPool* pool = nullptr);
 
-// Word votes alone: every location's tf-idf similarity to the query's words (exposed for
-// tests and evaluation).
-std::vector<float> WordScores(const FeatureSet& features, const Map& map,
+// Word votes alone (exposed for tests and evaluation): every location's tf-idf similarity to
+// the query's words, each of a location's landmarks counted; with hamming_max > 0, a word
+// match counts only when the two signatures (place_index.h) differ in at most hamming_max
+// of their 64 bits, weighted by how few.
+std::vector<float> WordScores(const FeatureSet& features, const Map& map, int hamming_max,
                               ThreadPool* pool = nullptr);
 
 // The approximate holistic distances alone (exposed for tests and evaluation).

@@ -70,18 +70,94 @@ TEST_F(PlaceIndexTest, TrainingBuildsAValidIndexThatTheMapFileKeeps) {
   ASSERT_TRUE(parsed.ok()) << parsed.status().ToString();
   test::ExpectMapsEqual(map, *parsed);
   EXPECT_EQ(parsed->inverted_file.location, map.inverted_file.location);
-  // Each location appears under as many distinct words as its landmarks have.
-  std::vector<int> postings(static_cast<size_t>(map.num_images()), 0);
-  for (uint32_t location : map.inverted_file.location) ++postings[location];
+  EXPECT_EQ(parsed->inverted_file.signature, map.inverted_file.signature);
+  // Each location appears once for every landmark of its G_l, under that landmark's word.
+  const InvertedFile& file = map.inverted_file;
+  std::vector<std::vector<uint32_t>> posted(static_cast<size_t>(map.num_images()));
+  for (size_t w = 0; w + 1 < file.offsets.size(); ++w) {
+    for (uint32_t k = file.offsets[w]; k < file.offsets[w + 1]; ++k) {
+      posted[file.location[k]].push_back(static_cast<uint32_t>(w));
+    }
+  }
   for (int l = 0; l < map.num_images(); ++l) {
     std::vector<uint32_t> words;
     for (uint32_t k = map.image_offsets[l]; k < map.image_offsets[l + 1]; ++k) {
       words.push_back(index.landmark_word[map.image_landmarks[k]]);
     }
     std::sort(words.begin(), words.end());
-    words.erase(std::unique(words.begin(), words.end()), words.end());
-    EXPECT_EQ(postings[static_cast<size_t>(l)], static_cast<int>(words.size())) << l;
+    EXPECT_EQ(posted[static_cast<size_t>(l)], words) << l;
   }
+}
+
+// The signatures' axes are orthonormal and the same on every call (and machine: integer
+// draws, IEEE arithmetic).
+TEST(SignatureProjectionTest, OrthonormalAndFixed) {
+  const SignatureProjection p = MakeSignatureProjection();
+  const Eigen::MatrixXf gram = p * p.transpose();
+  EXPECT_TRUE(gram.isApprox(Eigen::MatrixXf::Identity(kSignatureBits, kSignatureBits), 1e-5f));
+  EXPECT_EQ(MakeSignatureProjection(), p);
+}
+
+// A landmark's mean descriptor, asked as a query descriptor, gets the signature its
+// occurrences carry; and each bit splits its word's landmarks at their median.
+TEST_F(PlaceIndexTest, SignaturesAreTheLandmarksOwnAndSplitEachWordInHalves) {
+  const Map& map = *map_;
+  const InvertedFile& file = map.inverted_file;
+  const auto n = static_cast<Eigen::Index>(map.num_landmarks());
+  DescriptorMatrix means(n, kDescriptorSize);
+  for (Eigen::Index g = 0; g < n; ++g) map.LocalMean(static_cast<int>(g), means.row(g).data());
+  const std::vector<uint64_t> own = Signatures(file, means, map.place_index.landmark_word);
+  std::vector<uint64_t> stored(static_cast<size_t>(n));
+  std::vector<bool> seen(static_cast<size_t>(n), false);
+  for (int l = 0; l < map.num_images(); ++l) {
+    for (uint32_t k = map.image_offsets[l]; k < map.image_offsets[l + 1]; ++k) {
+      seen[map.image_landmarks[k]] = true;
+    }
+  }
+  // The occurrences in file order are the locations' landmarks in location order, by word.
+  std::vector<uint32_t> fill(file.offsets.begin(), file.offsets.end() - 1);
+  for (int l = 0; l < map.num_images(); ++l) {
+    for (uint32_t k = map.image_offsets[l]; k < map.image_offsets[l + 1]; ++k) {
+      const uint32_t g = map.image_landmarks[k];
+      stored[g] = file.signature[fill[map.place_index.landmark_word[g]]++];
+    }
+  }
+  std::vector<std::vector<uint64_t>> by_word(file.offsets.size() - 1);
+  for (Eigen::Index g = 0; g < n; ++g) {
+    if (seen[static_cast<size_t>(g)]) {
+      EXPECT_EQ(own[static_cast<size_t>(g)], stored[static_cast<size_t>(g)]) << g;
+    }
+    by_word[map.place_index.landmark_word[static_cast<size_t>(g)]].push_back(
+        own[static_cast<size_t>(g)]);
+  }
+  int words_checked = 0;
+  for (const std::vector<uint64_t>& signatures : by_word) {
+    if (signatures.size() < 8) continue;
+    ++words_checked;
+    for (int bit = 0; bit < kSignatureBits; ++bit) {
+      size_t set = 0;
+      for (uint64_t s : signatures) set += (s >> bit) & 1u;
+      // Strictly above the median element: about half, fewer when values tie.
+      EXPECT_LE(set, signatures.size() / 2);
+      EXPECT_GE(set + 2, (signatures.size() - 1) / 2);
+    }
+  }
+  EXPECT_GT(words_checked, 0);
+}
+
+// A tighter Hamming limit only removes word matches: every location's score falls or stays.
+TEST_F(PlaceIndexTest, ATighterHammingLimitOnlyRemovesMatches) {
+  int lower = 0;
+  for (const FeatureSet& q : *queries_) {
+    const std::vector<float> loose = WordScores(q, *map_, 64);
+    const std::vector<float> tight = WordScores(q, *map_, 20);
+    ASSERT_EQ(loose.size(), tight.size());
+    for (size_t l = 0; l < loose.size(); ++l) {
+      EXPECT_LE(tight[l], loose[l] * (1 + 1e-6f)) << l;
+      lower += tight[l] < loose[l];
+    }
+  }
+  EXPECT_GT(lower, 0) << "no word match was beyond 20 bits";
 }
 
 // Smaller maps, or a setting of 0, get none: they are searched whole.
@@ -174,7 +250,7 @@ TEST_F(PlaceIndexTest, DistinctPicksAreDistinctPlaces) {
   options.place_expand = 2;
   int wider = 0;
   for (const FeatureSet& q : *queries_) {
-    const std::vector<float> score = WordScores(q, *map_);
+    const std::vector<float> score = WordScores(q, *map_, options.place_hamming_max);
     std::vector<int> order(score.size());
     std::iota(order.begin(), order.end(), 0);
     std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return score[a] > score[b]; });
@@ -214,7 +290,8 @@ TEST_F(PlaceIndexTest, APoolChangesNothing) {
   options.place_holistic_top = 5;
   options.place_expand = 1;
   for (const FeatureSet& q : *queries_) {
-    EXPECT_EQ(WordScores(q, *map_, &pool), WordScores(q, *map_));
+    EXPECT_EQ(WordScores(q, *map_, options.place_hamming_max, &pool),
+              WordScores(q, *map_, options.place_hamming_max));
     EXPECT_EQ(ApproximateHolisticDistances(q, *map_, &pool),
               ApproximateHolisticDistances(q, *map_));
     const PlaceSearch alone = SearchPlaces(q, *map_, options);
