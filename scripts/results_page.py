@@ -19,6 +19,7 @@ The suites and the files they write:
   latency   scripts/bench_latency.sh OUT       OUT/latency.json
   auth      scripts/bench_auth.sh OUT          OUT/auth.json
   fleet     scripts/bench_fleet.sh OUT         OUT/fleet.json
+  distractors  sceneloc-accuracy --distractors DIR --out OUT ...   OUT/accuracy.json
   experiments  scripts/experiments.sh OUT      OUT/experiments.json (and its two plots)
 """
 import argparse
@@ -34,8 +35,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 RUNS = ROOT / "docs" / "runs"
 PAGE = ROOT / "docs" / "results.md"
-SUITES = ("accuracy", "scale", "server", "latency", "sessions", "hostile", "auth", "fleet",
-          "experiments")
+SUITES = ("accuracy", "distractors", "scale", "server", "latency", "sessions", "hostile", "auth",
+          "fleet", "experiments")
 # Plots a suite writes beside its JSON, kept with the run.
 PLOTS = {"scale": ("scale.png",), "experiments": ("eta_sweep.png", "eta_opt_vs_size.png")}
 
@@ -78,7 +79,7 @@ def trim_accuracy(run):
 
 def record(suite, path, command, commit):
     data = json.loads(Path(path).read_text())
-    if suite == "accuracy":
+    if suite in ("accuracy", "distractors"):
         data = trim_accuracy(data)
     # The build's own version (`--version`, in the suite's JSON) when it wrote one, else the
     # commit given, else the checkout's.
@@ -186,11 +187,55 @@ def accuracy_section(run):
     return out
 
 
+# ---------------------------------------------------------------- distractors
+
+def distractors_section(run, own_run):
+    d = run.get("distractors", {})
+    out = ["## Accuracy on a padded map", "", provenance(run), "",
+           f"Each set's tour padded to {d.get('locations', '?')} locations (the other data "
+           "set's frames as look-alike places, then generated distractor locations) and its "
+           "queries localised against it, beside the same set on its own map (the accuracy "
+           "run above): `own → padded`. *Off-route*: frames of a route in no map, LOCALISED.",
+           ""]
+    own = {s["name"]: s for s in (own_run or {}).get("sets", [])}
+    rows, deltas = [], []
+    for s in run["sets"]:
+        ours = method(s, "sceneloc")
+        base = own.get(s["name"])
+        base_ours = method(base, "sceneloc") if base else None
+
+        def pair(get, fmt):
+            a = get(base_ours, base) if base_ours else None
+            b = get(ours, s)
+            return f"{fmt(a)} → {fmt(b)}"
+
+        r2 = rate(ours, 2)
+        if base_ours:
+            deltas.append(r2 - rate(base_ours, 2))
+        session = lambda m, st: st.get("sessions", {}).get("walks", {}).get("in_order", {}).get(
+            "rate")
+        neg = s.get("negatives", {})
+        rows.append([s["name"], s["locations"], pair(lambda m, st: rate(m, 2), f2),
+                     f"{deltas[-1]:+.2f}" if base_ours else "–",
+                     pair(lambda m, st: m["confidence"].get("accepted_precision"), f3),
+                     pair(lambda m, st: m["confidence"].get("accepted"), f2),
+                     pair(session, f2),
+                     f"{neg['accepted']} / {neg['frames']}" if neg.get("frames") else "–"])
+    out += table(["set", "locations", "±2", "change", "LOCALISED precision", "share LOCALISED",
+                  "session ±2", "off-route"], rows)
+    if deltas:
+        out += ["", f"Mean change of ±2 over the {len(deltas)} sets: {sum(deltas) / len(deltas):+.3f}; "
+                    f"largest loss {min(deltas):+.2f}."]
+    return out
+
+
 # ---------------------------------------------------------------- scale
 
 SCALE_ROWS = (
     ("train_s", "training, s", "{:.0f}"),
     ("train_ms_per_location_but_extraction", "all but extraction, ms per location", "{:.1f}"),
+    ("features_per_location", "tour features per location", "{:.0f}"),
+    ("train_us_per_feature_but_extraction", "all but extraction, µs per tour feature", "{:.1f}"),
     ("train_peak_rss_mb", "training peak RSS, MB", "{:.0f}"),
     ("map_file_mb", "map file, MB", "{:.0f}"),
     ("map_kb_per_location", "map in RAM, KB per location", "{:.1f}"),
@@ -213,7 +258,9 @@ def scale_section(run):
            "distractor locations to each size; queries GP `day_right` 000–099, one client. "
            "The last columns: the largest size over the smallest, the slope against the size "
            "(log-log between the two largest; 1 = linear) and the projection to 100,000 "
-           "locations along it.", ""]
+           "locations along it. The generated distractor frames hold more features than "
+           "Gardens Point's (*tour features per location*), so training's cost per feature is "
+           "the like-for-like figure.", ""]
     header = ["figure"] + [f"{s['locations']:,}" for s in sizes] + ["ratio", "slope",
                                                                      "at 100,000"]
     rows = []
@@ -507,7 +554,9 @@ def render():
            "(measurements.md); decisions and what was tried and not taken: "
            "[history.md](history.md).", ""]
     for suite in SUITES:
-        if suite in runs:
+        if suite == "distractors" and suite in runs:
+            out += distractors_section(runs[suite], runs.get("accuracy")) + [""]
+        elif suite in runs:
             out += RENDER[suite](runs[suite]) + [""]
     missing = [s for s in SUITES if s not in runs]
     if missing:
