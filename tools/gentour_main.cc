@@ -38,6 +38,10 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"tour", "test", "both"}))
       ->capture_default_str();
   int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  app.add_option("--repeat-blocks", options.repeat_blocks,
+                 "look-alike places: the street repeats every N blocks of 40 m, each facade "
+                 "tile keeping one small sign of its own (0 = never)")
+      ->capture_default_str();
   app.add_option("--threads", threads, "rendering threads (the images do not depend on it)")
       ->check(CLI::Range(1, 256));
   try {

@@ -33,6 +33,8 @@ struct Plane {
 inline constexpr Plane kFacade{kFacadeDistance, 8.0, 9.5, 1, false};
 inline constexpr Plane kPillars{kPillarDistance, 5.0, 6.6, 2, true};
 inline constexpr uint64_t kSensorNoiseStream = 3;
+// A block of street for TourOptions::repeat_blocks: 40 m, 5 facade tiles, 8 pillar tiles.
+inline constexpr double kBlockMetres = 40.0;
 
 struct Tile {
   cv::Mat colour;  // CV_8UC3
@@ -43,10 +45,13 @@ struct Tile {
 // Not thread-safe; each render owns its own.
 class PlaneTexture {
  public:
-  PlaneTexture(const Plane& plane, uint32_t seed, double scale)
+  // period: the plane repeats every `period` tiles, each tile keeping a small sign of its
+  // own (0 = never periodic).
+  PlaneTexture(const Plane& plane, uint32_t seed, double scale, int64_t period = 0)
       : plane_(plane),
         seed_(seed),
         scale_(scale),
+        period_(period),
         tile_width_(static_cast<int>(std::lround(kRefTileWidth * scale))),
         rows_(static_cast<int>(std::lround(2 * plane.half_height * PixelsPerMetre()))) {}
 
@@ -65,10 +70,15 @@ class PlaneTexture {
   Tile Draw(int64_t k) const;
   Tile DrawFacadeTile(int64_t k) const;
   Tile DrawPillarTile(int64_t k) const;
+  // The tile whose pattern tile k repeats: k itself on a plane that is never periodic.
+  int64_t Pattern(int64_t k) const { return period_ > 0 ? ((k % period_) + period_) % period_ : k; }
+  // Tile k's own sign on a periodic facade: a small plate at a height and place of its own.
+  void DrawSign(int64_t k, cv::Mat* colour) const;
 
   const Plane plane_;
   const uint32_t seed_;
   const double scale_;
+  const int64_t period_;
   const int tile_width_;
   const int rows_;
   std::map<int64_t, Tile> cache_;

@@ -54,6 +54,9 @@ Status TourOptions::Validate() const {
   if (jpeg_quality < 1 || jpeg_quality > 100) {
     return InvalidArgument("jpeg_quality must be in [1, 100]");
   }
+  if (repeat_blocks < 0 || repeat_blocks > 1000) {
+    return InvalidArgument("repeat_blocks must be in [0, 1000]");
+  }
   return Status::Ok();
 }
 
@@ -67,10 +70,12 @@ namespace {
 
 using synthetic_internal::Camera;
 using synthetic_internal::CameraFor;
+using synthetic_internal::kBlockMetres;
 using synthetic_internal::kFacade;
 using synthetic_internal::kPillars;
 using synthetic_internal::kRefImageWidth;
 using synthetic_internal::kSensorNoiseStream;
+using synthetic_internal::Plane;
 using synthetic_internal::PlaneTexture;
 using synthetic_internal::RenderPlane;
 using synthetic_internal::RngFor;
@@ -83,8 +88,10 @@ class PassRenderer {
   PassRenderer(const TourOptions& options, int pass)
       : options_(options),
         pass_(pass),
-        facade_(kFacade, options.seed, options.image_width / kRefImageWidth),
-        pillars_(kPillars, options.seed, options.image_width / kRefImageWidth) {}
+        facade_(kFacade, options.seed, options.image_width / kRefImageWidth,
+                Period(options, kFacade)),
+        pillars_(kPillars, options.seed, options.image_width / kRefImageWidth,
+                 Period(options, kPillars)) {}
 
   // JPEG bytes of location `index`. Throws cv::Exception if OpenCV fails.
   std::string Render(int index) {
@@ -96,6 +103,11 @@ class PassRenderer {
   }
 
  private:
+  // The plane's period in tiles (0 = none): repeat_blocks blocks of kBlockMetres.
+  static int64_t Period(const TourOptions& options, const Plane& plane) {
+    return std::llround(options.repeat_blocks * kBlockMetres / plane.tile_metres);
+  }
+
   // Pillars over facade, blended by coverage (the warped mask is anti-aliased).
   static cv::Mat Composite(const Tile& facade, const Tile& pillars) {
     cv::Mat alpha, beta, out;

@@ -63,6 +63,11 @@ struct TourOptions {
   double noise_stddev = 2.0;
   // JPEG quality of the encoded images. 1 .. 100.
   int jpeg_quality = 90;
+  // Look-alike places: 0 = a street that never repeats. N > 0: the facade and the pillars
+  // repeat every N blocks of 40 m (kBlockMetres; 40 / (10 * step) locations a block, 13.3 at
+  // the default step), like a corridor of identical doors; each facade tile keeps one
+  // small sign of its own, so repeats differ only there. [0, 1000].
+  int repeat_blocks = 0;
 
   // OK when every field is in its documented range.
   Status Validate() const;

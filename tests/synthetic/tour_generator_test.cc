@@ -96,6 +96,27 @@ TEST(TourGeneratorTest, ShorterTourIsAPrefixOfALongerOne) {
   }
 }
 
+// A street of repeated blocks: a location looks like the one a block further on (only a
+// small sign per facade tile differs), and unlike locations half a block away; without
+// repeats the location a block on is another scene.
+TEST(TourGeneratorTest, RepeatedBlocksMakeLookAlikePlaces) {
+  TourOptions options = SmallTour(16);
+  options.step = 0.4;  // 4 m a location: a 40 m block is 10 locations
+  options.noise_stddev = 0;
+  options.repeat_blocks = 1;
+  const std::vector<std::string> repeated = Render(options, kTrainingPass);
+  options.repeat_blocks = 0;
+  const std::vector<std::string> plain = Render(options, kTrainingPass);
+  ASSERT_EQ(repeated.size(), 16u);
+  for (int i = 0; i < 6; ++i) {
+    const double twin = MeanAbsDifference(repeated[i], repeated[i + 10]);
+    EXPECT_GT(twin, 0.0) << "location " << i << ": its signs should differ";
+    EXPECT_LT(twin, 6.0) << "location " << i;
+    EXPECT_GT(MeanAbsDifference(repeated[i], repeated[i + 5]), 4 * twin) << "location " << i;
+    EXPECT_GT(MeanAbsDifference(plain[i], plain[i + 10]), 4 * twin) << "location " << i;
+  }
+}
+
 // Every image is a colour JPEG of the requested size, for several sizes and both passes.
 TEST(TourGeneratorTest, ImagesDecodeToTheRequestedSize) {
   for (const cv::Size size : {cv::Size(640, 360), cv::Size(320, 240), cv::Size(161, 90)}) {
@@ -210,6 +231,8 @@ TEST(TourGeneratorTest, InvalidOptionsAreRejected) {
       [](TourOptions* o) { o->brightness_offset = 300; },
       [](TourOptions* o) { o->noise_stddev = -1; },
       [](TourOptions* o) { o->jpeg_quality = 101; },
+      [](TourOptions* o) { o->repeat_blocks = -1; },
+      [](TourOptions* o) { o->repeat_blocks = 1001; },
   };
   const ScratchDir scratch;
   for (size_t i = 0; i < breakers.size(); ++i) {
