@@ -1,4 +1,4 @@
-// Issue 10's floor: every stage of a JPEG localisation beside plain SIFT on the same frames,
+// The latency floor: every stage of a JPEG localisation beside plain SIFT on the same frames,
 // in one run, so that each figure is a ratio to what this machine can do at best.
 //
 //   floor      cv::SIFT detectAndCompute on the grey working frame: one pyramid, the local

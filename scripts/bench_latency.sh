@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Issue 10's latency targets in one run on Gardens Point (day_left map, day_right queries):
+# The latency targets in one run on Gardens Point (day_left map, day_right queries):
 #   1. latency_floor: every stage beside plain SIFT detectAndCompute on the same frames;
 #   2. this checkout's server and a previous commit's (BASE_REV, built in OUT/base-src
 #      unless BASE_BUILD names a build folder of it), each with its own map and

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Issue 3's server targets on Gardens Point: latency of one client (JPEG and feature-set
+# The server's targets on Gardens Point: latency of one client (JPEG and feature-set
 # requests), 8-client throughput against a --threads 1 server, the map replaced under
 # 8-client load, and resident memory with one and two maps. Prints every figure and keeps
 # the sceneloc bench JSON files in OUT_DIR. About 3 minutes on 2 cores.

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Issue 8's attacks on a real sceneloc-server (bench/hostile_server.cc) with the
+# Hostile requests against a real sceneloc-server (bench/hostile_server.cc) with the
 # 200-location Gardens Point map, while a well-behaved client localises a frame every half
 # second: prints, per attack, what the hostile requests got, the good client's worst
 # latency, the server's peak resident memory and whether it stayed up. About 2 minutes.

@@ -24,6 +24,7 @@
 #include "common/util/version.h"
 #include "tools/eval/accuracy_suite.h"
 #include "tools/eval/distractor_suite.h"
+#include "tools/eval/leave_one_out.h"
 #include "tools/eval/reliability_plot.h"
 #include "tools/eval/report_json.h"
 
@@ -466,6 +467,14 @@ int RunSuite(const Args& a, const sl::SuiteSettings& settings,
     json["pooled"][name] = {{"queries", summary->queries}, {"methods", methods}};
   }
   PrintWalks(results);
+  std::vector<sl::HeldOutInput> held;
+  for (const sl::SetResult& r : results) {
+    held.push_back({r.set.name, r.set.queries_dir, &r.shell, &r.outcomes});
+  }
+  const std::vector<sl::HeldOutSummary> left_out = sl::LeaveOneSetOut(
+      held, settings.match, {settings.train.tolerance, settings.match.min_confidence});
+  sl::PrintLeaveOneOut(left_out, settings.match.min_confidence);
+  json["leave_one_out"] = sl::LeaveOneOutJson(left_out, settings.match.min_confidence);
   if (sl::Status w = sl::WriteReliabilityDiagram(panels, a.out_dir + "/reliability.png"); !w.ok()) {
     return Fail(w.message());
   }

@@ -16,6 +16,7 @@
 #include "common/util/thread_pool.h"
 #include "common/util/timer.h"
 #include "tools/eval/feature_cache.h"
+#include "tools/eval/leave_one_out.h"
 #include "tools/eval/sequence_eval.h"
 
 namespace sceneloc {
@@ -385,6 +386,7 @@ StatusOr<SetResult> RunSet(const SuiteSet& set, const SuiteSettings& settings,
                              {settings.train.tolerance, settings.match.min_confidence});
   result.paper = paper.summary;
   SummariseSessions(ours.map, settings, &result);
+  result.shell = MapShell(ours.map);
   return result;
 }
 

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "common/map/map.h"
 #include "common/map/train_options.h"
 #include "common/matching/localiser.h"
 #include "common/util/status.h"
@@ -90,6 +91,9 @@ struct SetResult {
   float negatives_max_confidence = 0;
   // Whether the paper's map and the baselines ran (not with distractors: distractor_suite.h).
   bool comparisons = true;
+  // What of our map the confidence reads (leave_one_out.h: MapShell), to read the answers
+  // again with other constants.
+  Map shell;
 };
 
 struct SuiteContext {

@@ -13,6 +13,7 @@
 #include "common/util/image_folder.h"
 #include "common/util/timer.h"
 #include "tools/eval/evaluation.h"
+#include "tools/eval/leave_one_out.h"
 
 namespace sceneloc {
 namespace {
@@ -164,6 +165,7 @@ StatusOr<SetResult> RunSetWithDistractors(const SuiteSet& set, const SuiteSettin
   if (!distractors.offroute_dir.empty()) offroute.negative_dirs.push_back(distractors.offroute_dir);
   SCENELOC_RETURN_IF_ERROR(RunNegatives(offroute, map, settings.match, data, context, &result));
   SummariseSessions(map, settings, &result);
+  result.shell = MapShell(map);
   return result;
 }
 
