@@ -185,6 +185,16 @@ Status CheckOutcomes(const std::vector<FeatureSet>& queries,
 
 }  // namespace
 
+LocaliseResult KeptResult(const QueryOutcome& o) {
+  LocaliseResult r;
+  r.ranked = o.ranked;
+  r.candidates = o.candidates;
+  r.location_scores = o.location_scores;
+  r.nearest_holistic_distance = o.nearest_holistic_distance;
+  r.confidence = o.ours.confidence;
+  return r;
+}
+
 Status RunOurs(const std::vector<FeatureSet>& queries, const Map& map, const MatchOptions& options,
                int threads, std::vector<QueryOutcome>* outcomes) {
   SCENELOC_RETURN_IF_ERROR(CheckOutcomes(queries, outcomes));

@@ -106,6 +106,10 @@ MethodSummary SummariseMethod(const std::vector<QueryOutcome>& outcomes, Method 
 EvalSummary Summarise(const std::vector<QueryOutcome>& outcomes, bool with_baseline,
                       const Judging& judging = {});
 
+// What of Localise's result `o` keeps (the ranking, candidates, location scores, nearest
+// holistic distance and confidence): enough for ReadWithCamera to read it again.
+LocaliseResult KeptResult(const QueryOutcome& o);
+
 // Localises every query (already extracted) against the map with `threads` threads and
 // fills outcome.ours (and the stages, matches and candidates). `outcomes` holds one entry per
 // query (InvalidArgument otherwise, before any work), as for RunBaselines.

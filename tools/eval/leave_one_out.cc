@@ -86,12 +86,7 @@ std::vector<MethodOutcome> ReadWithConstants(const Map& shell, const MatchOption
   for (const QueryOutcome& o : outcomes) {
     MethodOutcome read = o.ours;
     if (!o.ranked.empty()) {
-      LocaliseResult r;
-      r.ranked = o.ranked;
-      r.candidates = o.candidates;
-      r.location_scores = o.location_scores;
-      r.nearest_holistic_distance = o.nearest_holistic_distance;
-      r.confidence = o.ours.confidence;
+      LocaliseResult r = KeptResult(o);
       MatchOptions options = match;
       options.camera_log_scale = o.camera_log_scale;
       options.camera_log_doubt = o.camera_log_doubt;

@@ -26,12 +26,7 @@ bool KeepsANeighbour(const std::vector<int>& runs) {
 MethodOutcome OwnAnswerWithCamera(const QueryOutcome& o, const Map& map,
                                   const MatchOptions& options, double camera) {
   if (camera == o.camera_log_scale || o.ranked.empty()) return o.ours;
-  LocaliseResult r;
-  r.ranked = o.ranked;
-  r.candidates = o.candidates;
-  r.location_scores = o.location_scores;
-  r.nearest_holistic_distance = o.nearest_holistic_distance;
-  r.confidence = o.ours.confidence;
+  LocaliseResult r = KeptResult(o);
   MatchOptions read = options;
   read.camera_log_scale = camera;
   read.camera_log_doubt = 0;  // measured by the session
