@@ -1,7 +1,9 @@
-// The coarse stage's recall by words: for each query folder, how often one of the first K
-// distinct word picks (place_search.h, place_expand 3) lies within the tolerance of the
-// query's true place (file-name truth), at each Hamming limit asked. What the fine stage can
-// answer is bounded by it; `sceneloc-eval` measures the answers themselves.
+// The coarse stage's recall: for each query folder, how often one of the first K distinct
+// picks (place_search.h, place_expand 3) lies within the tolerance of the query's true place
+// (file-name truth): by words, at each Hamming limit asked, and by holistic distance, exact
+// over the whole map and as the coarse stage measures it (approximate, its shortlist
+// exact). What the fine stage can answer is bounded by it; `sceneloc-eval` measures
+// the answers themselves.
 //
 //   place_recall --map BIG.scnl --queries DIR... [--hamming 0 24 32] [--cache DIR]
 //
@@ -9,11 +11,13 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cstdio>
+#include <limits>
 #include <numeric>
 #include <string>
 #include <vector>
 
 #include "common/map/map_io.h"
+#include "common/matching/holistic_similarity.h"
 #include "common/matching/place_search.h"
 #include "common/util/image_folder.h"
 #include "tools/eval/evaluation.h"
@@ -51,10 +55,30 @@ int PickRank(const std::vector<float>& value, int truth, int max_picks) {
   return 0;
 }
 
+// Negated holistic distances (nearer is higher, as PickRank reads): exact to every location
+// if `exact`, else as SearchPlaces measures them (its HolisticShortlist exact, the rest never
+// picked).
+std::vector<float> HolisticValues(const sl::FeatureSet& query, const sl::Map& map, bool exact) {
+  const int max_shift = map.options.extractor.holistic.max_shift;
+  std::vector<float> value;
+  if (exact) {
+    value = sl::HolisticDistances(query, map, max_shift, nullptr);
+  } else {
+    const std::vector<int> order =
+        sl::HolisticShortlist(sl::ApproximateHolisticDistances(query, map), sl::kHolisticRefine);
+    const std::vector<float> measured =
+        sl::HolisticDistancesTo(query, map, order, max_shift, nullptr);
+    value.assign(static_cast<size_t>(map.num_images()), std::numeric_limits<float>::max());
+    for (size_t i = 0; i < order.size(); ++i) value[static_cast<size_t>(order[i])] = measured[i];
+  }
+  for (float& v : value) v = -v;
+  return value;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"place_recall: how often the coarse stage's word picks hold the true place"};
+  CLI::App app{"place_recall: how often the coarse stage's picks hold the true place"};
   std::string map_path, cache;
   std::vector<std::string> dirs;
   std::vector<int> limits = {0, 32};
@@ -79,7 +103,14 @@ int main(int argc, char** argv) {
     return 1;
   }
   const sl::ExtractionTarget frame{map.image_width, map.image_height, map.holistic_grid};
-  std::vector<std::vector<double>> mean(limits.size(), std::vector<double>(ks.size(), 0));
+  // Rows: one per Hamming limit, then holistic exact and holistic as searched.
+  std::vector<std::string> rows;
+  for (int limit : limits) rows.push_back("hamming " + std::to_string(limit));
+  if (!map.place_index.holistic.empty()) {
+    rows.push_back("holistic exact");
+    rows.push_back("holistic searched");
+  }
+  std::vector<std::vector<double>> mean(rows.size(), std::vector<double>(ks.size(), 0));
   for (const std::string& dir : dirs) {
     auto listed = sl::ListImageFiles(dir);
     if (!listed.ok()) {
@@ -95,16 +126,19 @@ int main(int argc, char** argv) {
                    (queries.ok() ? truth.status() : queries.status()).ToString().c_str());
       return 1;
     }
-    std::printf("%s (%zu queries): share with a word pick within +-%d among the first K\n",
-                dir.c_str(), queries->size(), kTolerance);
-    for (size_t v = 0; v < limits.size(); ++v) {
+    std::printf("%s (%zu queries): share with a pick within +-%d among the first K\n", dir.c_str(),
+                queries->size(), kTolerance);
+    for (size_t v = 0; v < rows.size(); ++v) {
       std::vector<int> hits(ks.size(), 0);
       for (size_t q = 0; q < queries->size(); ++q) {
-        const int rank =
-            PickRank(sl::WordScores((*queries)[q], map, limits[v]), (*truth)[q], ks.back());
+        const sl::FeatureSet& query = (*queries)[q];
+        const std::vector<float> value =
+            v < limits.size() ? sl::WordScores(query, map, limits[v])
+                              : HolisticValues(query, map, /*exact=*/v == limits.size());
+        const int rank = PickRank(value, (*truth)[q], ks.back());
         for (size_t j = 0; j < ks.size(); ++j) hits[j] += rank > 0 && rank <= ks[j];
       }
-      std::printf("  hamming %-3d", limits[v]);
+      std::printf("  %-18s", rows[v].c_str());
       for (size_t j = 0; j < ks.size(); ++j) {
         const double share = static_cast<double>(hits[j]) / static_cast<double>(queries->size());
         mean[v][j] += share / static_cast<double>(dirs.size());
@@ -114,8 +148,8 @@ int main(int argc, char** argv) {
     }
   }
   std::printf("mean over the %zu folders\n", dirs.size());
-  for (size_t v = 0; v < limits.size(); ++v) {
-    std::printf("  hamming %-3d", limits[v]);
+  for (size_t v = 0; v < rows.size(); ++v) {
+    std::printf("  %-18s", rows[v].c_str());
     for (size_t j = 0; j < ks.size(); ++j) std::printf("  K=%d %.3f", ks[j], mean[v][j]);
     std::printf("\n");
   }

@@ -11,9 +11,6 @@
 namespace sceneloc {
 namespace {
 
-// Locations the approximate holistic distance shortlists for an exact one.
-constexpr int kRefine = 128;
-
 // The `count` locations of highest `value` (lowest index among equals), best first if
 // `ordered`, else in no order.
 std::vector<int> Top(const std::vector<float>& value, int count, bool highest,
@@ -107,10 +104,11 @@ std::vector<float> WordScores(const FeatureSet& features, const Map& map, int ha
   return score;
 }
 
-std::vector<float> ApproximateHolisticDistances(const FeatureSet& features, const Map& map,
-                                                ThreadPool* pool) {
+ApproximateHolistic ApproximateHolisticDistances(const FeatureSet& features, const Map& map,
+                                                 ThreadPool* pool) {
   const HolisticProjection& h = map.place_index.holistic;
-  if (h.empty() || features.holistic.empty()) return {};
+  ApproximateHolistic out;
+  if (h.empty() || features.holistic.empty()) return out;
   const HolisticGrid& grid = map.holistic_grid;
   const int shifts = h.num_shifts(), dims = h.dims;
   const size_t n = static_cast<size_t>(map.num_images());
@@ -140,19 +138,26 @@ std::vector<float> ApproximateHolisticDistances(const FeatureSet& features, cons
     cells_per_shift[static_cast<size_t>(k)] =
         static_cast<float>(grid.rows * (grid.cols - std::abs(shift)));
   }
-  // |q - t|^2 ~ |z - y|^2 + both residuals: the parts the axes leave out taken as orthogonal.
-  std::vector<float> distance(n);
+  // Within the axes, |z - y|^2 per compared cell: the nearness. As a distance,
+  // |q - t|^2 ~ |z - y|^2 + both residuals (the parts the axes leave out taken as
+  // orthogonal). Each the least over the shifts.
+  out.nearness.resize(n);
+  out.distance.resize(n);
   const auto measure = [&](size_t begin, size_t end) {
     for (size_t l = begin; l < end; ++l) {
-      float best = std::numeric_limits<float>::max();
+      float nearest = std::numeric_limits<float>::max(), best = nearest;
       for (int k = 0; k < shifts; ++k) {
         const float* y = h.projected.data() + (l * shifts + k) * dims;
         const float* q = z.data() + k * dims;
-        float d2 = rest[static_cast<size_t>(k)] + h.residual[l * shifts + k];
+        float d2 = 0;
         for (int a = 0; a < dims; ++a) d2 += (q[a] - y[a]) * (q[a] - y[a]);
-        best = std::min(best, d2 / cells_per_shift[static_cast<size_t>(k)]);
+        const float cells = cells_per_shift[static_cast<size_t>(k)];
+        nearest = std::min(nearest, d2 / cells);
+        best = std::min(best,
+                        (d2 + rest[static_cast<size_t>(k)] + h.residual[l * shifts + k]) / cells);
       }
-      distance[l] = best;
+      out.nearness[l] = nearest;
+      out.distance[l] = best;
     }
   };
   constexpr size_t kLocationsPerTask = 2048;
@@ -161,7 +166,16 @@ std::vector<float> ApproximateHolisticDistances(const FeatureSet& features, cons
   } else {
     measure(0, n);
   }
-  return distance;
+  return out;
+}
+
+std::vector<int> HolisticShortlist(const ApproximateHolistic& approximate, int count) {
+  std::vector<int> shortlist = Top(approximate.nearness, count, /*highest=*/false);
+  const std::vector<int> by_distance = Top(approximate.distance, count, /*highest=*/false);
+  shortlist.insert(shortlist.end(), by_distance.begin(), by_distance.end());
+  std::sort(shortlist.begin(), shortlist.end());
+  shortlist.erase(std::unique(shortlist.begin(), shortlist.end()), shortlist.end());
+  return shortlist;
 }
 
 PlaceSearch SearchPlaces(const FeatureSet& features, const Map& map, const MatchOptions& options,
@@ -202,12 +216,13 @@ PlaceSearch SearchPlaces(const FeatureSet& features, const Map& map, const Match
   };
   pick(WordScores(features, map, options.place_hamming_max, pool), options.place_word_top,
        /*highest=*/true);
-  search.holistic = ApproximateHolisticDistances(features, map, pool);
-  if (!search.holistic.empty() && options.place_holistic_top > 0) {
-    // The approximation ranks the nearest only roughly: its kRefine nearest are measured
-    // exactly, and the nearest of those are the candidates.
+  ApproximateHolistic approximate = ApproximateHolisticDistances(features, map, pool);
+  if (!approximate.distance.empty() && options.place_holistic_top > 0) {
+    // The approximation ranks the nearest only roughly: its shortlist is measured exactly,
+    // and the nearest of those are the candidates.
     const std::vector<int> shortlist =
-        Top(search.holistic, std::max(kRefine, options.place_holistic_top), /*highest=*/false);
+        HolisticShortlist(approximate, std::max(kHolisticRefine, options.place_holistic_top));
+    search.holistic = std::move(approximate.distance);
     const std::vector<float> exact = HolisticDistancesTo(
         features, map, shortlist, map.options.extractor.holistic.max_shift, pool);
     std::vector<float> refined(search.holistic.size(), std::numeric_limits<float>::max());
@@ -216,6 +231,8 @@ PlaceSearch SearchPlaces(const FeatureSet& features, const Map& map, const Match
       refined[shortlist[i]] = exact[i];
     }
     pick(refined, options.place_holistic_top, /*highest=*/false);
+  } else {
+    search.holistic = std::move(approximate.distance);
   }
   for (int l = 0; l < n; ++l) {
     if (chosen[static_cast<size_t>(l)]) search.locations.push_back(l);

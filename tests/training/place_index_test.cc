@@ -175,15 +175,22 @@ TEST(PlaceIndexBuilderTest, NoIndexBelowTheSize) {
   EXPECT_TRUE(map.Validate().ok());
 }
 
-// The approximate holistic distance ranks like the exact one: each query's exactly nearest
-// location is among its approximately nearest few.
+// The approximate holistic distance ranks like the exact one on a map of one route: each
+// query's exactly nearest location is among its approximately nearest few. It is on the
+// exact one's scale; what the axes leave out only adds to the nearness.
 TEST_F(PlaceIndexTest, ApproximateHolisticDistanceFindsTheNearest) {
   const Map& map = *map_;
   int within = 0;
   for (const FeatureSet& q : *queries_) {
     const std::vector<float> exact = HolisticDistances(q, map, 2, nullptr);
-    const std::vector<float> approximate = ApproximateHolisticDistances(q, map);
+    const ApproximateHolistic measured = ApproximateHolisticDistances(q, map);
+    const std::vector<float>& approximate = measured.distance;
     ASSERT_EQ(approximate.size(), exact.size());
+    ASSERT_EQ(measured.nearness.size(), exact.size());
+    for (size_t l = 0; l < exact.size(); ++l) {
+      EXPECT_GE(approximate[l], measured.nearness[l]);
+      EXPECT_NEAR(measured.distance[l], exact[l], 0.5f * exact[l]) << "location " << l;
+    }
     const int nearest =
         static_cast<int>(std::min_element(exact.begin(), exact.end()) - exact.begin());
     const int rank =
@@ -193,6 +200,32 @@ TEST_F(PlaceIndexTest, ApproximateHolisticDistanceFindsTheNearest) {
     within += rank < 5;
   }
   EXPECT_GE(within, kLocations * 9 / 10);
+}
+
+// What the axes leave out of a location does not move it in the nearness: a location the axes
+// describe poorly (as a map's own route is when most of the map is another route) keeps its
+// nearness, only its distance grows, and the shortlist still holds it though its distance
+// ranks it last.
+TEST_F(PlaceIndexTest, ApproximateNearnessIgnoresWhatTheAxesMiss) {
+  Map map = *map_;
+  const FeatureSet& q = queries_->front();
+  const ApproximateHolistic before = ApproximateHolisticDistances(q, map);
+  const int nearest = static_cast<int>(
+      std::min_element(before.nearness.begin(), before.nearness.end()) - before.nearness.begin());
+  const int shifts = map.place_index.holistic.num_shifts();
+  for (int k = 0; k < shifts; ++k) {
+    map.place_index.holistic.residual[static_cast<size_t>(nearest * shifts + k)] += 1e3f;
+  }
+  const ApproximateHolistic after = ApproximateHolisticDistances(q, map);
+  EXPECT_EQ(after.nearness, before.nearness);
+  EXPECT_GT(after.distance[static_cast<size_t>(nearest)],
+            before.distance[static_cast<size_t>(nearest)]);
+  EXPECT_EQ(std::max_element(after.distance.begin(), after.distance.end()) - after.distance.begin(),
+            nearest);
+  const std::vector<int> shortlist = HolisticShortlist(after, 3);
+  EXPECT_TRUE(std::is_sorted(shortlist.begin(), shortlist.end()));
+  EXPECT_NE(std::find(shortlist.begin(), shortlist.end(), nearest), shortlist.end());
+  EXPECT_LE(shortlist.size(), 6u);
 }
 
 // A scope of every location is the whole map: the coarse stage asked for more candidates
@@ -292,8 +325,10 @@ TEST_F(PlaceIndexTest, APoolChangesNothing) {
   for (const FeatureSet& q : *queries_) {
     EXPECT_EQ(WordScores(q, *map_, options.place_hamming_max, &pool),
               WordScores(q, *map_, options.place_hamming_max));
-    EXPECT_EQ(ApproximateHolisticDistances(q, *map_, &pool),
-              ApproximateHolisticDistances(q, *map_));
+    const ApproximateHolistic spread_holistic = ApproximateHolisticDistances(q, *map_, &pool);
+    const ApproximateHolistic alone_holistic = ApproximateHolisticDistances(q, *map_);
+    EXPECT_EQ(spread_holistic.nearness, alone_holistic.nearness);
+    EXPECT_EQ(spread_holistic.distance, alone_holistic.distance);
     const PlaceSearch alone = SearchPlaces(q, *map_, options);
     const PlaceSearch spread = SearchPlaces(q, *map_, options, &pool);
     EXPECT_EQ(spread.locations, alone.locations);
