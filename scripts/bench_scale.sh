@@ -70,6 +70,20 @@ make_tour() {
   done
 }
 
+# Like for like: the generated tour's own first 200 frames, trained alone. The padded maps'
+# smallest size is Gardens Point, whose frames hold fewer features than the generated ones;
+# training's cost per location at the largest size is compared with this too.
+like="$out/generated-200"
+if [[ ! ($keep_maps == 1 && -s $like/train.txt) ]] && ((${#synthetic[@]} >= 200)); then
+  echo "== 200 generated locations (like for like)"
+  rm -rf "$like"
+  mkdir -p "$like/tour"
+  for ((i = 0; i < 200; ++i)); do ln -s "$out/distractors/tour/${synthetic[i]}" "$like/tour/"; done
+  /usr/bin/time -v "$build/tools/sceneloc-train" --tour "$like/tour" --out "$like/map.scnl" \
+    --threads "$threads" >"$like/train.txt" 2>"$like/train.err"
+  tail -n 1 "$like/train.txt"
+fi
+
 hwm_mb() { awk '/VmHWM/ {printf "%.1f", $2 / 1024}' "/proc/$server_pid/status"; }
 load_ms() { grep -o 'after [0-9]* ms' "$1" | tail -n 1 | grep -o '[0-9]*'; }
 

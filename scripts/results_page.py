@@ -301,6 +301,13 @@ def scale_section(run):
             f2(run.get("ratios", {}).get(key)), f2(run.get("slopes", {}).get(key)),
             "–" if projected is None else fmt.format(projected)])
     out += table(header, rows)
+    like = run.get("like_for_like")
+    if like:
+        out += ["", f"Like for like, the generated tour's first {like['locations']} frames "
+                f"trained alone ({like['features_per_location']:.0f} features per location): "
+                f"all but extraction {like['train_ms_per_location_but_extraction']:.1f} ms per "
+                f"location; the {sizes[-1]['locations']:,}-location map's is "
+                f"{like['largest_over_it']:.2f}× that."]
     if (RUNS / "scale.png").exists():
         out += ["", "![every figure against the map's size](runs/scale.png)"]
     return out

@@ -116,6 +116,21 @@ def main(out, sizes):
                      f" | {'' if ratio is None else f'{ratio:.2f}'}"
                      f" | {'' if s is None else f'{s:.2f}'} | "
                      f"{'' if projected is None else fmt.format(projected)} |")
+    like = out / "generated-200"
+    if (like / "train.txt").exists():
+        # The largest size against a tour of the same generated frames at the smallest.
+        total, extract, _, _, tour_features = train_figures(like)
+        ms = 1000 * (total - extract) / 200
+        report["like_for_like"] = {
+            "locations": 200,
+            "features_per_location": tour_features / 200,
+            "train_ms_per_location_but_extraction": ms,
+            "largest_over_it": rows[-1]["train_ms_per_location_but_extraction"] / ms,
+        }
+        lines.append("")
+        lines.append(f"all but extraction, 200 generated locations: {ms:.1f} ms/location "
+                     f"({tour_features / 200:.0f} features); {last:,} over it: "
+                     f"{report['like_for_like']['largest_over_it']:.2f}")
     table = "\n".join(lines)
     print(table)
     (out / "scale.md").write_text(table + "\n")

@@ -70,7 +70,8 @@ StatusOr<std::vector<std::string>> Padding(const SuiteSet& set, size_t tour_size
 }
 
 // What a padded map is made of, as text: its cache entry holds it, so an entry made from
-// other images or settings is a miss.
+// other images or settings is a miss. Paths are canonical: the same data reached through
+// another spelling (a relative --data) finds the same entry.
 std::string MapKey(const SetData& data, const std::vector<std::string>& padding,
                    const TrainOptions& train) {
   std::ostringstream key;
@@ -78,7 +79,9 @@ std::string MapKey(const SetData& data, const std::vector<std::string>& padding,
   for (const std::string& name : data.tour_names) key << name << '\n';
   for (const std::string& path : padding) {
     std::error_code ec;
-    key << fs::absolute(path).string() << '\t' << fs::file_size(path, ec) << '\n';
+    fs::path canonical = fs::weakly_canonical(path, ec);
+    if (ec) canonical = fs::absolute(path);
+    key << canonical.string() << '\t' << fs::file_size(path, ec) << '\n';
   }
   return key.str();
 }
