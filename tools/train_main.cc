@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <string>
 #include <thread>
 
 #include "common/config/config.h"
@@ -16,6 +17,39 @@
 #include "common/util/version.h"
 
 namespace {
+
+// Where the map is weak: the stretches of the tour whose frames verify against places
+// elsewhere on the route (lookalikes.h).
+void PrintLookAlikes(const sceneloc::TrainSummary& s) {
+  constexpr size_t kShown = 8;
+  if (s.lookalikes.empty()) return;
+  const std::vector<sceneloc::LookAlikeStretch> stretches =
+      sceneloc::LookAlikeStretches(s.lookalikes, sceneloc::kLookAlikeInliers);
+  size_t frames = 0;
+  for (const sceneloc::LookAlikeStretch& a : stretches) frames += a.last - a.first + 1;
+  if (stretches.empty()) {
+    std::printf(
+        "  look-alikes          none: no place verifies against another more than %d frames away\n",
+        sceneloc::kHeldOutFrames);
+    return;
+  }
+  std::printf(
+      "  look-alikes          %zu stretch%s (%zu places) verify against places more than %d "
+      "frames away:\n",
+      stretches.size(), stretches.size() == 1 ? "" : "es", frames, sceneloc::kHeldOutFrames);
+  for (size_t i = 0; i < stretches.size() && i < kShown; ++i) {
+    const sceneloc::LookAlikeStretch& a = stretches[i];
+    const auto span = [](int first, int last) {
+      return first == last ? std::to_string(first)
+                           : std::to_string(first) + "-" + std::to_string(last);
+    };
+    std::printf("                       places %s look like %s (up to %.0f inliers above chance)\n",
+                span(a.first, a.last).c_str(), span(a.rival_first, a.rival_last).c_str(), a.excess);
+  }
+  if (stretches.size() > kShown) {
+    std::printf("                       ... and %zu more\n", stretches.size() - kShown);
+  }
+}
 
 void PrintSummary(const sceneloc::TrainSummary& s, const std::string& out, double seconds,
                   size_t bytes) {
@@ -53,11 +87,12 @@ void PrintSummary(const sceneloc::TrainSummary& s, const std::string& out, doubl
     std::printf("  feature spool        %.2f GB on disk while training\n",
                 static_cast<double>(s.spool_bytes) / 1e9);
   }
+  PrintLookAlikes(s);
   std::printf(
       "  time (s)             extract %.1f, track %.1f, fuse %.1f, quality %.1f, "
-      "select %.2f, co-occurrence %.1f, calibration %.1f, place index %.1f\n",
+      "select %.2f, co-occurrence %.1f, calibration %.1f, place index %.1f, look-alikes %.1f\n",
       s.extract_seconds, s.track_seconds, s.fuse_seconds, s.quality_seconds, s.select_seconds,
-      s.cooccurrence_seconds, s.calibration_seconds, s.index_seconds);
+      s.cooccurrence_seconds, s.calibration_seconds, s.index_seconds, s.lookalike_seconds);
 }
 
 // Refuses an --out that cannot be written before any work is done: its folder must exist

@@ -292,6 +292,31 @@ size_t MatrixBytes(const Matrix& m) {
   return static_cast<size_t>(m.size()) * sizeof(typename Matrix::Scalar);
 }
 
+// Look-alikes: none, or a CSR over the images naming other images, with ratios in (0, 1].
+Status ValidateLookAlikes(const Map& m) {
+  if (m.lookalike_offsets.empty()) {
+    if (!m.lookalike_location.empty() || !m.lookalike_ratio.empty()) {
+      return DataLoss("look-alikes without their offsets");
+    }
+    return Status::Ok();
+  }
+  const size_t n = m.image_names.size();
+  if (m.lookalike_offsets.size() != n + 1 || m.lookalike_offsets.front() != 0 ||
+      m.lookalike_offsets.back() != m.lookalike_location.size() ||
+      m.lookalike_ratio.size() != m.lookalike_location.size() ||
+      !std::is_sorted(m.lookalike_offsets.begin(), m.lookalike_offsets.end())) {
+    return DataLoss("look-alike lists do not match the tour images");
+  }
+  for (size_t i = 0; i < m.lookalike_location.size(); ++i) {
+    if (m.lookalike_location[i] >= n || !(m.lookalike_ratio[i] > 0.0f) ||
+        !(m.lookalike_ratio[i] <= 1.0f)) {
+      return DataLoss("look-alike " + std::to_string(i) + " names no tour image or its ratio " +
+                      "is outside (0, 1]");
+    }
+  }
+  return Status::Ok();
+}
+
 }  // namespace
 
 Status Map::Validate() const {
@@ -306,6 +331,7 @@ Status Map::Validate() const {
   SCENELOC_RETURN_IF_ERROR(ValidateImageLandmarks(*this));
   SCENELOC_RETURN_IF_ERROR(ValidateLandmarkValues(*this));
   SCENELOC_RETURN_IF_ERROR(ValidateNeighbourValues(*this));
+  SCENELOC_RETURN_IF_ERROR(ValidateLookAlikes(*this));
   return ValidatePlaceIndex(place_index, static_cast<size_t>(num_landmarks()), image_names.size(),
                             holistic_grid);
 }
@@ -419,6 +445,8 @@ size_t Map::MemoryBytes() const {
       VectorBytes(observation_offsets) + VectorBytes(observation_image) + VectorBytes(observations);
   bytes += VectorBytes(neighbour_offsets) + VectorBytes(neighbours);
   bytes += VectorBytes(image_offsets) + VectorBytes(image_landmarks);
+  bytes += VectorBytes(lookalike_offsets) + VectorBytes(lookalike_location) +
+           VectorBytes(lookalike_ratio);
   bytes += MatrixBytes(local_projected) + VectorBytes(local_projected_sqnorm) +
            VectorBytes(local_residual_norm);
   const PlaceIndex& p = place_index;

@@ -99,6 +99,15 @@ struct Map {
   // The coarse stage's index (place_index.h); empty in maps searched whole.
   PlaceIndex place_index;
 
+  // Look-alikes (CSR over tour images; common/training/lookalikes.h): the places elsewhere
+  // on the route that a tour image's frame verifies against, each with how much of the
+  // image's own verified evidence it reaches (in (0, 1]). The confidence reads the evidence
+  // of an answer's look-alikes as weaker than that of distinct places. All three empty in
+  // maps made without them (format versions 1-6).
+  std::vector<uint32_t> lookalike_offsets;  // N + 1
+  std::vector<uint32_t> lookalike_location;
+  std::vector<float> lookalike_ratio;
+
   // --- Derived by Finalize(), not stored ---
   std::vector<float> local_mean_sqnorm;  // |mu|^2 per landmark
   // S_D's lower bound (descriptor_similarity.cc): P, the kBoundDims principal axes of the
@@ -119,6 +128,7 @@ struct Map {
   int num_images() const { return static_cast<int>(image_names.size()); }
   bool has_holistic() const { return !holistic_grid.empty(); }
   bool has_place_index() const { return !place_index.empty(); }
+  bool has_lookalikes() const { return !lookalike_offsets.empty(); }
   const uint8_t* holistic_of(int image) const {
     return holistic.data() + static_cast<size_t>(image) * holistic_grid.size();
   }

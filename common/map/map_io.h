@@ -3,7 +3,7 @@
 // sequence makes LoadMap or ParseMap crash, read out of bounds or allocate much more
 // than the file's own size; each failure is a status whose message names the file.
 //
-// Layout, format version 6. Integers are little-endian two's complement, f32/f64 are
+// Layout, format version 7. Integers are little-endian two's complement, f32/f64 are
 // IEEE 754 binary32/binary64 little-endian. There is no padding anywhere.
 //
 //   Header, 32 bytes:
@@ -48,6 +48,9 @@
 //                    arr<f32> holistic_axes, arr<f32> holistic_projected,
 //                    arr<f32> holistic_residual (all zero or empty in a map without one;
 //                    place_index.h)
+//     Look-alikes    arr<u32> lookalike_offsets, arr<u32> lookalike_location,
+//                    arr<f32> lookalike_ratio (all empty in a map without them; map.h)
+//                    (version 7; versions 1-6 end before them)
 //   where  str       = u64 byte count, then the bytes (UTF-8, no terminator)
 //          arr<T>    = u64 element count, then the elements packed
 //          mat<T>    = u64 rows, u64 cols (must equal the stated count), rows x cols T
@@ -113,7 +116,7 @@
 namespace sceneloc {
 
 inline constexpr char kMapMagic[8] = {'S', 'C', 'N', 'L', 'M', 'A', 'P', '\0'};
-inline constexpr uint32_t kMapFormatVersion = 6;
+inline constexpr uint32_t kMapFormatVersion = 7;
 inline constexpr size_t kMapHeaderBytes = 32;
 
 // What the header of a map file says.

@@ -351,6 +351,11 @@ void TransferMap(Archive& a, MapT& m, uint32_t version, V1& v1) {
   a.Field("image_offsets", m.image_offsets);
   a.Field("image_landmarks", m.image_landmarks);
   if (version >= 4) TransferPlaceIndex(a, m.place_index);
+  if (version >= 7) {
+    a.Field("lookalike_offsets", m.lookalike_offsets);
+    a.Field("lookalike_location", m.lookalike_location);
+    a.Field("lookalike_ratio", m.lookalike_ratio);
+  }
 }
 
 // A version-1 map in today's terms: its working frame is the frame it was made in, its

@@ -22,17 +22,46 @@ ConfidenceModel SupportedModel(const Map& map, ConfidenceModel wanted) {
   return wanted;
 }
 
+LocationTemperatures LookAlikeTemperatures(const Map& map, int answer, double temperature) {
+  LocationTemperatures out;
+  if (!map.has_lookalikes()) return out;
+  const int n = map.num_images(), tolerance = map.options.tolerance;
+  for (uint32_t k = map.lookalike_offsets[answer]; k < map.lookalike_offsets[answer + 1]; ++k) {
+    const int b = static_cast<int>(map.lookalike_location[k]);
+    const double rho = std::min<double>(map.lookalike_ratio[k], kMaxLookAlikeRatio);
+    for (int l = std::max(0, b - tolerance); l <= std::min(n - 1, b + tolerance); ++l) {
+      if (std::abs(l - answer) > tolerance + 1) out.emplace_back(l, temperature / (1 - rho));
+    }
+  }
+  // A location near two look-alikes takes the flatter reading.
+  std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) {
+    return a.first != b.first ? a.first < b.first : a.second > b.second;
+  });
+  out.erase(std::unique(out.begin(), out.end(),
+                        [](const auto& a, const auto& b) { return a.first == b.first; }),
+            out.end());
+  return out;
+}
+
 double LocationPosterior(const std::vector<float>& location_scores, int answer, int tolerance,
-                         double temperature, double plateau) {
+                         double temperature, double plateau, const LocationTemperatures& own) {
   if (location_scores.empty()) return 0;
   const auto [low, high] = std::minmax_element(location_scores.begin(), location_scores.end());
   if (*low == *high) return 0;  // no evidence tells any location from another
   const float top = *high;
   const double flat = plateau * temperature;
+  std::vector<double> own_temperature;
+  if (!own.empty()) {
+    own_temperature.assign(location_scores.size(), 0.0);
+    for (const auto& [l, t] : own) {
+      if (l >= 0 && static_cast<size_t>(l) < own_temperature.size()) own_temperature[l] = t;
+    }
+  }
   double total = 0, near = 0;
   for (size_t l = 0; l < location_scores.size(); ++l) {
     const int offset = std::abs(static_cast<int>(l) - answer);
-    const double t = offset <= tolerance + 1 ? flat : temperature;
+    double t = offset <= tolerance + 1 ? flat : temperature;
+    if (!own_temperature.empty() && own_temperature[l] > 0) t = own_temperature[l];
     const double w = std::exp((location_scores[l] - top) / t);  // <= 1: no overflow
     total += w;
     if (offset <= tolerance) near += w;

@@ -27,6 +27,7 @@
 #pragma once
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "common/map/map.h"
@@ -45,13 +46,30 @@ StatusOr<ConfidenceModel> ParseConfidenceModel(const std::string& name);
 // calibration (maps of format version 1 have none) and falls back to the paper's.
 ConfidenceModel SupportedModel(const Map& map, ConfidenceModel wanted);
 
+// Locations read at a temperature of their own: (location, temperature) pairs.
+using LocationTemperatures = std::vector<std::pair<int, double>>;
+
+// The ratio of a look-alike's verified evidence to the place's own above which the two are
+// read as one (the temperature stops rising): a place is never quite its look-alike.
+inline constexpr double kMaxLookAlikeRatio = 0.95;
+
+// The answer's look-alikes (Map::lookalike_*): every location within `tolerance` of a
+// look-alike b of `answer` with ratio rho, and beyond tolerance + 1 of the answer, at
+// temperature / (1 - rho): its evidence counts as if (1 - rho) of its difference from the
+// answer's were real. A query of a repeated place verifies against its repeat about as well
+// as against itself, so the difference says less than that between distinct places. Empty
+// for a map without look-alikes.
+LocationTemperatures LookAlikeTemperatures(const Map& map, int answer, double temperature);
+
 // P(within tolerance | in the map): the posterior mass of locations within `tolerance`
 // of `answer`, with location_scores[l] read as log-likelihoods at `temperature`, or at
-// plateau * temperature within tolerance + 1 of `answer` (plateau 1: one temperature).
-// 0 when there are no scores or all are equal (nothing tells any location from another).
-// REQUIRES: temperature > 0, plateau >= 1, answer < location_scores.size().
+// plateau * temperature within tolerance + 1 of `answer` (plateau 1: one temperature), or
+// at the temperature `own` gives a location. 0 when there are no scores or all are equal
+// (nothing tells any location from another).
+// REQUIRES: temperature > 0, plateau >= 1, answer < location_scores.size(), own's
+// temperatures > 0.
 double LocationPosterior(const std::vector<float>& location_scores, int answer, int tolerance,
-                         double temperature, double plateau);
+                         double temperature, double plateau, const LocationTemperatures& own = {});
 
 // P(in the map) from the query's smallest holistic distance to the tour; 1 when it is
 // unknown (negative: no holistic descriptor) or the map is uncalibrated.

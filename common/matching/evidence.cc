@@ -117,15 +117,22 @@ void ScoreCandidates(const std::vector<CandidateEvidence>& candidates, const Mat
 
 double CameraAveragedPosterior(const std::vector<float>& location_scores,
                                const std::vector<CandidateEvidence>& candidates, int answer,
-                               int tolerance, double temperature, const MatchOptions& options) {
+                               int tolerance, double temperature, const MatchOptions& options,
+                               const LocationTemperatures& own) {
   const double plateau = options.confidence_plateau;
   const double spread = options.confidence_scale_spread > 0
                             ? std::hypot(options.confidence_scale_spread, options.camera_log_doubt)
                             : 0.0;
   const size_t n = location_scores.size();
   if (spread <= 0 || options.verify_scale_sigma <= 0 || candidates.empty() || n == 0) {
-    return LocationPosterior(location_scores, answer, tolerance, temperature, plateau);
+    return LocationPosterior(location_scores, answer, tolerance, temperature, plateau, own);
   }
+  // Locations read at their own temperature (0: none), summed one by one.
+  std::vector<double> own_temperature(own.empty() ? 0 : n, 0.0);
+  for (const auto& [l, t] : own) {
+    if (l >= 0 && static_cast<size_t>(l) < n) own_temperature[l] = t;
+  }
+  const auto own_t = [&](size_t l) { return own_temperature.empty() ? 0.0 : own_temperature[l]; };
   const auto [low, high] = std::minmax_element(location_scores.begin(), location_scores.end());
   if (*low == *high) return 0;  // as LocationPosterior: nothing tells locations apart
   // Where each location's weight is read: within tolerance of the answer (counted), one
@@ -152,8 +159,13 @@ double CameraAveragedPosterior(const std::vector<float>& location_scores,
     if (!is_verified[l]) other_top = std::max<double>(other_top, location_scores[l]);
   }
   double other[3] = {0, 0, 0};  // per zone, sum of exp((s - other_top) / t)
+  std::vector<size_t> apart;    // not verified, at their own temperature
   for (size_t l = 0; l < n; ++l) {
     if (is_verified[l]) continue;
+    if (own_t(l) > 0) {
+      apart.push_back(l);
+      continue;
+    }
     const Zone z = zone(l);
     other[z] += std::exp((location_scores[l] - other_top) / (z == kFar ? temperature : flat));
   }
@@ -177,11 +189,14 @@ double CameraAveragedPosterior(const std::vector<float>& location_scores,
               other[kFar] * std::exp((other_top - top) / temperature);
     }
     for (size_t i = 0; i < verified.size(); ++i) {
-      const Zone z = zone(static_cast<size_t>(verified[i]->location));
-      const double w = std::exp((score[i] - top) / (z == kFar ? temperature : flat));
+      const size_t l = static_cast<size_t>(verified[i]->location);
+      const Zone z = zone(l);
+      const double t = own_t(l) > 0 ? own_t(l) : z == kFar ? temperature : flat;
+      const double w = std::exp((score[i] - top) / t);
       total += w;
       if (z == kNear) near += w;
     }
+    for (const size_t l : apart) total += std::exp((location_scores[l] - top) / own_t(l));
     averaged += weight * near / total;
     weights += weight;
   }
@@ -191,8 +206,10 @@ double CameraAveragedPosterior(const std::vector<float>& location_scores,
 double CalibratedConfidence(const Map& map, const std::vector<float>& location_scores,
                             const std::vector<CandidateEvidence>& candidates, int answer,
                             double nearest_holistic_distance, const MatchOptions& options) {
+  const double temperature = map.options.confidence_temperature;
   return CameraAveragedPosterior(location_scores, candidates, answer, map.options.tolerance,
-                                 map.options.confidence_temperature, options) *
+                                 temperature, options,
+                                 LookAlikeTemperatures(map, answer, temperature)) *
          InMapProbability(map, nearest_holistic_distance);
 }
 

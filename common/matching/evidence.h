@@ -5,6 +5,7 @@
 
 #include <vector>
 
+#include "common/matching/confidence.h"
 #include "common/matching/localiser.h"
 
 namespace sceneloc {
@@ -56,13 +57,16 @@ void ScoreCandidates(const std::vector<CandidateEvidence>& candidates, const Mat
 // the spread (confidence_scale_spread and camera_log_doubt in quadrature); the other locations'
 // scores do not depend on the camera. The answer stays the one ranked with camera_log_scale.
 // LocationPosterior of `location_scores` itself when confidence_scale_spread or verify_scale_sigma
-// is 0 (no scale cue to doubt) or nothing was verified. O(locations + candidates x 9).
+// is 0 (no scale cue to doubt) or nothing was verified. `own`: locations read at their own
+// temperature, as LocationPosterior's. O(locations + (candidates + own) x 9).
 double CameraAveragedPosterior(const std::vector<float>& location_scores,
                                const std::vector<CandidateEvidence>& candidates, int answer,
-                               int tolerance, double temperature, const MatchOptions& options);
+                               int tolerance, double temperature, const MatchOptions& options,
+                               const LocationTemperatures& own = {});
 
 // The calibrated confidence (confidence.h): CameraAveragedPosterior with the map's tolerance
-// and temperature, times InMapProbability.
+// and temperature, the answer's look-alikes at theirs (LookAlikeTemperatures), times
+// InMapProbability.
 double CalibratedConfidence(const Map& map, const std::vector<float>& location_scores,
                             const std::vector<CandidateEvidence>& candidates, int answer,
                             double nearest_holistic_distance, const MatchOptions& options);

@@ -429,6 +429,14 @@ StatusOr<TrainResult> TrainFromTour(const TourFeatures& tour,
   s.fuse_seconds = watch.Seconds();
   chunks.clear();
   SCENELOC_RETURN_IF_ERROR(FinishMap(options, &pool, &s, &map));
+
+  watch.Reset();
+  SCENELOC_ASSIGN_OR_RETURN(s.lookalikes,
+                            MeasureLookAlikes(tour, map, &pool, [&](size_t done, size_t total) {
+                              Report(progress, "look-alikes", done, total);
+                            }));
+  StoreLookAlikes(s.lookalikes, kLookAlikeInliers, &map);
+  s.lookalike_seconds = watch.Seconds();
   return result;
 }
 

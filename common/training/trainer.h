@@ -14,6 +14,7 @@
 
 #include "common/features/feature_set.h"
 #include "common/map/map.h"
+#include "common/training/lookalikes.h"
 #include "common/training/tour_features.h"
 #include "common/util/status.h"
 
@@ -21,7 +22,7 @@ namespace sceneloc {
 
 // Called as work progresses: stage name, items done, items in the stage. Stages, in order:
 // "extract" (images; folders only), "link" (image pairs), "quality" (images scored),
-// "fuse" (images).
+// "fuse" (images), "look-alikes" (images).
 using ProgressFn = std::function<void(const std::string& stage, size_t done, size_t total)>;
 
 struct TrainSummary {
@@ -45,6 +46,8 @@ struct TrainSummary {
   uint64_t spool_bytes = 0;    // features spooled to disk (0: the tour was in memory)
   // Tour images left with no landmark: only the holistic descriptor can answer them.
   std::vector<std::string> images_without_landmarks;
+  // Per tour image, the place that wins with its own stretch held out (lookalikes.h).
+  std::vector<LookAlike> lookalikes;
   // Wall-clock seconds per step.
   double extract_seconds = 0;
   double track_seconds = 0;
@@ -54,6 +57,7 @@ struct TrainSummary {
   double cooccurrence_seconds = 0;
   double calibration_seconds = 0;
   double index_seconds = 0;  // the place index (place_index_builder.h)
+  double lookalike_seconds = 0;
 };
 
 struct TrainResult {

@@ -131,6 +131,29 @@ std::vector<Breakage> Breakages() {
        "neighbours[1].distance_var is 0"},
       {"ZeroAngleVariance", [](Map* m) { m->neighbours[2].angle_sd = 0; },
        "neighbours[2].angle_var is 0"},
+      {"LookAlikesWithoutOffsets", [](Map* m) { m->lookalike_location = {1}; },
+       "look-alikes without their offsets"},
+      {"LookAlikeOffsetsShort",
+       [](Map* m) {
+         m->lookalike_offsets.assign(12, 0);  // one short of the 12 images
+       },
+       "look-alike lists do not match the tour images"},
+      {"LookAlikeOutOfRange",
+       [](Map* m) {
+         m->lookalike_offsets.assign(13, 1);
+         m->lookalike_offsets[0] = 0;
+         m->lookalike_location = {12};
+         m->lookalike_ratio = {0.5f};
+       },
+       "look-alike 0 names no tour image"},
+      {"LookAlikeRatioZero",
+       [](Map* m) {
+         m->lookalike_offsets.assign(13, 1);
+         m->lookalike_offsets[0] = 0;
+         m->lookalike_location = {3};
+         m->lookalike_ratio = {0.0f};
+       },
+       "its ratio is outside (0, 1]"},
   };
 }
 

@@ -131,5 +131,53 @@ TEST(ConfidenceTest, PaperModelAndFallback) {
   EXPECT_FALSE(ParseConfidenceModel("bayes").ok());
 }
 
+// A twin known to the map (a look-alike at ratio 0.9) is read at a tenth of the evidence
+// difference: the answer that would be sure of itself against a distinct place of the same
+// evidence shares its mass with the twin; a look-alike at ratio 0 changes nothing.
+TEST(ConfidenceTest, ALookAlikeIsReadAsWeakerEvidence) {
+  Map map;
+  map.image_names.resize(100);
+  map.options.tolerance = 2;
+  map.lookalike_offsets.assign(101, 0);
+  // 40 has one look-alike, 80, at 0.9; every other location none.
+  map.lookalike_location = {80};
+  map.lookalike_ratio = {0.9f};
+  for (size_t l = 41; l < map.lookalike_offsets.size(); ++l) map.lookalike_offsets[l] = 1;
+  ASSERT_TRUE(map.has_lookalikes());
+  const LocationTemperatures own = LookAlikeTemperatures(map, 40, kT);
+  ASSERT_EQ(own.size(), 5u);  // 78..82
+  EXPECT_EQ(own.front().first, 78);
+  EXPECT_NEAR(own.front().second, kT / (1 - 0.9), 1e-5);  // the ratio is a float
+  EXPECT_TRUE(LookAlikeTemperatures(map, 41, kT).empty());
+
+  std::vector<float> s(100, 0.0f);
+  s[40] = 6.0f;
+  s[80] = 4.0f;  // two units below: decisive between distinct places
+  const double distinct = LocationPosterior(s, 40, 2, kT, kPlateau);
+  const double twin = LocationPosterior(s, 40, 2, kT, kPlateau, own);
+  EXPECT_GT(distinct, 0.99);
+  // The twin and the four locations about it, each at ten times the temperature.
+  const double t = kT / (1 - 0.9);
+  EXPECT_NEAR(twin, 1 / (1 + std::exp(-2.0 / t) + 4 * std::exp(-6.0 / t)), 1e-3);
+  EXPECT_LT(twin, 0.7);
+
+  map.lookalike_ratio = {0.0f};  // stored ratios are > 0; 0 reads as no look-alike
+  EXPECT_NEAR(LocationPosterior(s, 40, 2, kT, kPlateau, LookAlikeTemperatures(map, 40, kT)),
+              distinct, 1e-12);
+}
+
+// Ratios above kMaxLookAlikeRatio read as it: a place is never quite its look-alike.
+TEST(ConfidenceTest, ALookAlikeRatioIsCapped) {
+  Map map;
+  map.image_names.resize(20);
+  map.lookalike_offsets.assign(21, 1);
+  map.lookalike_offsets[0] = 0;
+  map.lookalike_location = {15};
+  map.lookalike_ratio = {1.0f};
+  const LocationTemperatures own = LookAlikeTemperatures(map, 0, kT);
+  ASSERT_FALSE(own.empty());
+  EXPECT_NEAR(own.front().second, kT / (1 - kMaxLookAlikeRatio), 1e-9);
+}
+
 }  // namespace
 }  // namespace sceneloc

@@ -281,6 +281,9 @@ void ExpectMapsEqual(const Map& a, const Map& b) {
   ExpectArraysEqual("neighbours", a.neighbours, b.neighbours);
   ExpectArraysEqual("image_offsets", a.image_offsets, b.image_offsets);
   ExpectArraysEqual("image_landmarks", a.image_landmarks, b.image_landmarks);
+  ExpectArraysEqual("lookalike_offsets", a.lookalike_offsets, b.lookalike_offsets);
+  ExpectArraysEqual("lookalike_location", a.lookalike_location, b.lookalike_location);
+  ExpectArraysEqual("lookalike_ratio", a.lookalike_ratio, b.lookalike_ratio);
   ExpectArraysEqual("local_mean_sqnorm", a.local_mean_sqnorm, b.local_mean_sqnorm);
   const PlaceIndex &p = a.place_index, &q = b.place_index;
   EXPECT_EQ(p.vocabulary.coarse, q.vocabulary.coarse);

@@ -165,7 +165,8 @@ TEST_F(WindowTest, SpooledFolderTrainsAsInMemory) {
   ASSERT_TRUE(spooled.ok()) << spooled.status().ToString();
   EXPECT_GT(spooled->summary.spool_bytes, 0u);
   EXPECT_EQ(Bytes(spooled->map), Bytes(Train(5).map));
-  EXPECT_EQ(stages, (std::vector<std::string>{"extract", "link", "quality", "fuse"}));
+  EXPECT_EQ(stages,
+            (std::vector<std::string>{"extract", "link", "quality", "fuse", "look-alikes"}));
   for (const auto& [stage, counts] : last) EXPECT_EQ(counts.first, counts.second) << stage;
 }
 
