@@ -217,12 +217,14 @@ PlaceSearch SearchPlaces(const FeatureSet& features, const Map& map, const Match
   pick(WordScores(features, map, options.place_hamming_max, pool), options.place_word_top,
        /*highest=*/true);
   ApproximateHolistic approximate = ApproximateHolisticDistances(features, map, pool);
-  if (!approximate.distance.empty() && options.place_holistic_top > 0) {
-    // The approximation ranks the nearest only roughly: its shortlist is measured exactly,
-    // and the nearest of those are the candidates.
-    const std::vector<int> shortlist =
-        HolisticShortlist(approximate, std::max(kHolisticRefine, options.place_holistic_top));
-    search.holistic = std::move(approximate.distance);
+  // The approximation ranks the nearest only roughly: its shortlist is measured exactly, and
+  // the nearest of those are the candidates.
+  const bool refine = !approximate.distance.empty() && options.place_holistic_top > 0;
+  const std::vector<int> shortlist =
+      refine ? HolisticShortlist(approximate, std::max(kHolisticRefine, options.place_holistic_top))
+             : std::vector<int>();
+  search.holistic = std::move(approximate.distance);
+  if (refine) {
     const std::vector<float> exact = HolisticDistancesTo(
         features, map, shortlist, map.options.extractor.holistic.max_shift, pool);
     std::vector<float> refined(search.holistic.size(), std::numeric_limits<float>::max());
@@ -231,8 +233,6 @@ PlaceSearch SearchPlaces(const FeatureSet& features, const Map& map, const Match
       refined[shortlist[i]] = exact[i];
     }
     pick(refined, options.place_holistic_top, /*highest=*/false);
-  } else {
-    search.holistic = std::move(approximate.distance);
   }
   for (int l = 0; l < n; ++l) {
     if (chosen[static_cast<size_t>(l)]) search.locations.push_back(l);
