@@ -52,6 +52,18 @@ Status SetFromNode(const SettingField& f, const YAML::Node& value, const std::st
   return Status::Ok();
 }
 
+// Keys that settings files once held, with why they are gone: a file that still sets one is
+// told so rather than that the key is unknown.
+struct RetiredKey {
+  const char* section;
+  const char* key;
+  const char* why;
+};
+constexpr RetiredKey kRetiredKeys[] = {
+    {"place_index", "holistic_dims",
+     "map format 8 codes the holistic descriptors' cells instead of projecting them on axes"},
+};
+
 }  // namespace
 
 Status ApplySettings(const std::string& yaml, const std::string& name, const SettingTable& table) {
@@ -79,6 +91,12 @@ Status ApplySettings(const std::string& yaml, const std::string& name, const Set
       });
       const std::string where = name + ": " + section_name + "." + key;
       if (field == table.end()) {
+        for (const RetiredKey& retired : kRetiredKeys) {
+          if (section_name == retired.section && key == retired.key) {
+            return InvalidArgument(where + " is no longer a setting (" + retired.why +
+                                   "): remove it");
+          }
+        }
         return InvalidArgument(name + ": unknown key '" + section_name + "." + key + "'");
       }
       SCENELOC_RETURN_IF_ERROR(SetFromNode(*field, entry.second, where));

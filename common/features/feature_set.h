@@ -45,7 +45,8 @@ struct HolisticGrid {
   int rows = 0;
   int bins = 0;
 
-  int size() const { return cols * rows * bins; }
+  int cells() const { return cols * rows; }
+  int size() const { return cells() * bins; }
   bool empty() const { return size() == 0; }
   bool operator==(const HolisticGrid& o) const {
     return cols == o.cols && rows == o.rows && bins == o.bins;

@@ -406,6 +406,11 @@ void Map::Finalize() {
   inverted_file = has_place_index()
                       ? BuildInvertedFile(place_index, image_offsets, image_landmarks, local_mean)
                       : InvertedFile();
+  // A map of format versions 4-7 has a place index without holistic codes.
+  if (has_place_index() && has_holistic() && place_index.holistic.empty()) {
+    place_index.holistic =
+        CodeHolistic(holistic, holistic_grid, static_cast<size_t>(num_images()), nullptr);
+  }
 }
 
 void ProjectBlock(const DescriptorMatrix& means,
@@ -451,8 +456,7 @@ size_t Map::MemoryBytes() const {
            VectorBytes(local_residual_norm);
   const PlaceIndex& p = place_index;
   bytes += MatrixBytes(p.vocabulary.centroids) + VectorBytes(p.landmark_word) +
-           VectorBytes(p.holistic.mean) + VectorBytes(p.holistic.axes) +
-           VectorBytes(p.holistic.projected) + VectorBytes(p.holistic.residual);
+           VectorBytes(p.holistic.codebook) + VectorBytes(p.holistic.codes);
   const InvertedFile& f = inverted_file;
   bytes += VectorBytes(f.offsets) + VectorBytes(f.location) + VectorBytes(f.signature) +
            VectorBytes(f.idf) + VectorBytes(f.location_scale) + VectorBytes(f.thresholds) +

@@ -176,7 +176,8 @@ struct Map {
   // Checks every count and index for consistency; a map that passes can be matched
   // against without further bounds checks. Errors name the first inconsistency.
   Status Validate() const;
-  // Computes the derived fields. REQUIRES: Validate().ok().
+  // Computes the derived fields, and the holistic codes of a place index read from format
+  // versions 4-7 (place_index.h). REQUIRES: Validate().ok().
   void Finalize();
   // Approximate heap bytes held by this map.
   size_t MemoryBytes() const;

@@ -3,7 +3,7 @@
 // sequence makes LoadMap or ParseMap crash, read out of bounds or allocate much more
 // than the file's own size; each failure is a status whose message names the file.
 //
-// Layout, format version 7. Integers are little-endian two's complement, f32/f64 are
+// Layout, format version 8. Integers are little-endian two's complement, f32/f64 are
 // IEEE 754 binary32/binary64 little-endian. There is no padding anywhere.
 //
 //   Header, 32 bytes:
@@ -25,7 +25,7 @@
 //                    f64 context_var_floor, f64 distance_sd_floor, f64 angle_var_floor,
 //                    f64 quality_s_min, f64 quality_fp_prior, i32 eta, f64 q_min,
 //                    i32 quality_window, i32 max_neighbours,
-//                    i32 place_index_min_locations, i32 place_index_dims
+//                    i32 place_index_min_locations
 //                    i32 tolerance, f64 confidence_temperature, f64 map_evidence_slope,
 //                    f64 map_evidence_offset
 //     MapProvenance  str tour_dir, str created_utc, str tool_version, u32 num_features,
@@ -44,10 +44,9 @@
 //     Neighbours     arr<u32> neighbour_offsets, arr<neighbour> neighbours
 //     Image lists    arr<u32> image_offsets, arr<u32> image_landmarks
 //     Place index    i32 coarse, i32 fine, mat centroids (128 cols), arr<u32> landmark_word,
-//                    i32 holistic_max_shift, i32 holistic_dims, arr<f32> holistic_mean,
-//                    arr<f32> holistic_axes, arr<f32> holistic_projected,
-//                    arr<f32> holistic_residual (all zero or empty in a map without one;
-//                    place_index.h)
+//                    i32 holistic_bins, arr<f32> holistic_codebook (256 x bins),
+//                    arr<u8> holistic_codes (N x cols x rows) (all zero or empty in a map
+//                    without one; place_index.h)
 //     Look-alikes    arr<u32> lookalike_offsets, arr<u32> lookalike_location,
 //                    arr<f32> lookalike_ratio (all empty in a map without them; map.h)
 //                    (version 7; versions 1-6 end before them)
@@ -69,6 +68,13 @@
 //
 //   where a u8 flag is 0 or 1.
 //
+//   Format version 7 (still read): as 8 with i32 place_index_dims after
+//   place_index_min_locations and the place index's holistic part as i32 holistic_max_shift,
+//   i32 holistic_dims, arr<f32> holistic_mean, arr<f32> holistic_axes, arr<f32>
+//   holistic_projected, arr<f32> holistic_residual (principal axes of the holistic
+//   descriptors per lateral shift and every location's projection on them): a reader reads
+//   past them, and loading codes the holistic descriptors as version 8 stores them. Format
+//   version 6 (still read): as 7 without the look-alikes.
 //   Format version 5 (still read): as 6 with arr<f32> mean_x, arr<f32> mean_y (each
 //   landmark's mean position, which today's maps compute) before quality, the observations as
 //   arr<f32> observation_x, arr<f32> observation_y, arr<f32> observation_size, arr<f32>
@@ -116,7 +122,7 @@
 namespace sceneloc {
 
 inline constexpr char kMapMagic[8] = {'S', 'C', 'N', 'L', 'M', 'A', 'P', '\0'};
-inline constexpr uint32_t kMapFormatVersion = 7;
+inline constexpr uint32_t kMapFormatVersion = 8;
 inline constexpr size_t kMapHeaderBytes = 32;
 
 // What the header of a map file says.

@@ -47,7 +47,7 @@ static_assert(std::is_trivially_copyable_v<Neighbour> && sizeof(Neighbour) == 32
 // map_io.h and to the round-trip test, bump kMapFormatVersion, then update these sizes.
 static_assert(sizeof(void*) != 8 || sizeof(ExtractorOptions) == 80,
               "ExtractorOptions changed: update the map file format");
-static_assert(sizeof(void*) != 8 || sizeof(TrainOptions) == 232,
+static_assert(sizeof(void*) != 8 || sizeof(TrainOptions) == 224,
               "TrainOptions changed: update the map file format");
 
 // Fields of format version 1 that later versions store differently; read, then converted
@@ -115,7 +115,10 @@ void TransferOptions(Archive& a, Options& o, uint32_t version, V1& v1) {
   a.Field("max_neighbours", o.max_neighbours);
   if (version >= 4) {
     a.Field("place_index_min_locations", o.place_index_min_locations);
-    a.Field("place_index_dims", o.place_index_dims);
+    if (version < 8) {
+      int32_t place_index_dims = 0;  // the axes of versions 4-7's holistic projection
+      a.Field("place_index_dims", place_index_dims);
+    }
   } else if constexpr (!std::is_const_v<Options>) {
     o.place_index_min_locations = 0;  // read from an older file: made without one
   }
@@ -146,17 +149,27 @@ void TransferCalibration(Archive& a, CalibrationT& c) {
 }
 
 template <typename Archive, typename Index>
-void TransferPlaceIndex(Archive& a, Index& p) {
+void TransferPlaceIndex(Archive& a, Index& p, uint32_t version) {
   a.Field("place_index.coarse", p.vocabulary.coarse);
   a.Field("place_index.fine", p.vocabulary.fine);
   a.Field("place_index.centroids", p.vocabulary.centroids);
   a.Field("place_index.landmark_word", p.landmark_word);
-  a.Field("place_index.holistic_max_shift", p.holistic.max_shift);
-  a.Field("place_index.holistic_dims", p.holistic.dims);
-  a.Field("place_index.holistic_mean", p.holistic.mean);
-  a.Field("place_index.holistic_axes", p.holistic.axes);
-  a.Field("place_index.holistic_projected", p.holistic.projected);
-  a.Field("place_index.holistic_residual", p.holistic.residual);
+  if (version >= 8) {
+    a.Field("place_index.holistic_bins", p.holistic.bins);
+    a.Field("place_index.holistic_codebook", p.holistic.codebook);
+    a.Field("place_index.holistic_codes", p.holistic.codes);
+    return;
+  }
+  // Versions 4-7 projected the holistic descriptors on principal axes instead: read past
+  // (written empty); Map::Finalize codes the descriptors.
+  int32_t max_shift = 0, dims = 0;
+  std::vector<float> mean, axes, projected, residual;
+  a.Field("place_index.holistic_max_shift", max_shift);
+  a.Field("place_index.holistic_dims", dims);
+  a.Field("place_index.holistic_mean", mean);
+  a.Field("place_index.holistic_axes", axes);
+  a.Field("place_index.holistic_projected", projected);
+  a.Field("place_index.holistic_residual", residual);
 }
 
 // The fields format version 5 stores compactly (compact.h) and older versions as floats:
@@ -350,7 +363,7 @@ void TransferMap(Archive& a, MapT& m, uint32_t version, V1& v1) {
   Neighbours(a, version, m);
   a.Field("image_offsets", m.image_offsets);
   a.Field("image_landmarks", m.image_landmarks);
-  if (version >= 4) TransferPlaceIndex(a, m.place_index);
+  if (version >= 4) TransferPlaceIndex(a, m.place_index, version);
   if (version >= 7) {
     a.Field("lookalike_offsets", m.lookalike_offsets);
     a.Field("lookalike_location", m.lookalike_location);

@@ -3,8 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <numeric>
 #include <random>
 #include <string>
+
+#include "common/map/compact.h"
 
 namespace sceneloc {
 namespace {
@@ -15,9 +18,6 @@ bool AllFinite(const float* v, size_t n) {
   }
   return true;
 }
-
-// Tour cells compared at `shift`: columns [begin, begin + width).
-int ShiftBegin(int shift, bool query) { return query ? std::max(0, shift) : std::max(0, -shift); }
 
 Status ValidateVocabulary(const PlaceIndex& index, size_t num_landmarks) {
   const Vocabulary& v = index.vocabulary;
@@ -48,41 +48,24 @@ Status ValidateVocabulary(const PlaceIndex& index, size_t num_landmarks) {
   return Status::Ok();
 }
 
-Status ValidateProjection(const HolisticProjection& h, size_t num_locations,
-                          const HolisticGrid& grid) {
-  if (h.empty()) return Status::Ok();
-  if (grid.empty()) return DataLoss("place index projects holistic descriptors the map lacks");
-  if (h.dims < 1 || h.dims > 1024 || h.max_shift < 0 || h.max_shift >= grid.cols) {
-    return DataLoss("place index holistic projection (" + std::to_string(h.dims) + " axes, shift " +
-                    std::to_string(h.max_shift) + ") is out of range");
+Status ValidateCodes(const HolisticCodes& h, size_t num_locations, const HolisticGrid& grid) {
+  if (h.empty()) {
+    if (!h.codes.empty()) return DataLoss("place index holds holistic codes without a codebook");
+    return Status::Ok();
   }
-  const size_t shifts = static_cast<size_t>(h.num_shifts());
-  const size_t values = h.MeanOffset(h.num_shifts(), grid);
-  if (h.mean.size() != values || h.axes.size() != values * static_cast<size_t>(h.dims) ||
-      !AllFinite(h.mean.data(), h.mean.size()) || !AllFinite(h.axes.data(), h.axes.size())) {
-    return DataLoss("place index holistic projection does not fit the holistic grid");
+  if (grid.empty()) return DataLoss("place index codes holistic descriptors the map lacks");
+  if (h.bins != grid.bins ||
+      h.codebook.size() != static_cast<size_t>(kHolisticCodes) * static_cast<size_t>(grid.bins) ||
+      !AllFinite(h.codebook.data(), h.codebook.size())) {
+    return DataLoss("place index holistic codebook does not fit the holistic grid");
   }
-  if (h.projected.size() != num_locations * shifts * static_cast<size_t>(h.dims) ||
-      h.residual.size() != num_locations * shifts ||
-      !AllFinite(h.projected.data(), h.projected.size()) ||
-      !AllFinite(h.residual.data(), h.residual.size())) {
-    return DataLoss("place index holistic projection does not hold every location");
+  if (h.codes.size() != num_locations * static_cast<size_t>(grid.cells())) {
+    return DataLoss("place index holistic codes do not hold every location");
   }
   return Status::Ok();
 }
 
 }  // namespace
-
-size_t ShiftSpan(const HolisticGrid& grid, int shift) {
-  return static_cast<size_t>(grid.rows) * static_cast<size_t>(grid.cols - std::abs(shift)) *
-         static_cast<size_t>(grid.bins);
-}
-
-size_t HolisticProjection::MeanOffset(int k, const HolisticGrid& grid) const {
-  size_t offset = 0;
-  for (int j = 0; j < k; ++j) offset += ShiftSpan(grid, j - max_shift);
-  return offset;
-}
 
 Status ValidatePlaceIndex(const PlaceIndex& index, size_t num_landmarks, size_t num_locations,
                           const HolisticGrid& grid) {
@@ -93,7 +76,7 @@ Status ValidatePlaceIndex(const PlaceIndex& index, size_t num_landmarks, size_t 
     return Status::Ok();
   }
   SCENELOC_RETURN_IF_ERROR(ValidateVocabulary(index, num_landmarks));
-  return ValidateProjection(index.holistic, num_locations, grid);
+  return ValidateCodes(index.holistic, num_locations, grid);
 }
 
 SignatureProjection MakeSignatureProjection() {
@@ -232,7 +215,9 @@ std::vector<uint64_t> Signatures(const InvertedFile& file, const DescriptorMatri
 namespace {
 
 // Index of the nearest of `centres` for each row of `x`: |c|^2 - 2 x.c smallest.
-std::vector<uint32_t> Nearest(const DescriptorMatrix& x, const DescriptorMatrix& centres) {
+template <typename Rows, typename Centres>
+std::vector<uint32_t> Nearest(const Eigen::MatrixBase<Rows>& x,
+                              const Eigen::MatrixBase<Centres>& centres) {
   const Eigen::VectorXf c2 = centres.rowwise().squaredNorm();
   const Eigen::MatrixXf dots = centres * x.transpose();  // centres x rows
   std::vector<uint32_t> out(static_cast<size_t>(x.rows()));
@@ -244,7 +229,104 @@ std::vector<uint32_t> Nearest(const DescriptorMatrix& x, const DescriptorMatrix&
   return out;
 }
 
+// Cells the holistic codebook is fitted on, at most (sampled evenly), and its rounds.
+constexpr size_t kCodebookSamples = 65536;
+constexpr int kCodebookIterations = 10;
+
+// Cells [begin, end) of `holistic` (unit bytes, `bins` a cell) as values.
+RowMatrix CellValues(const std::vector<uint8_t>& holistic, int bins, size_t begin, size_t end) {
+  RowMatrix x(static_cast<Eigen::Index>(end - begin), bins);
+  for (size_t c = begin; c < end; ++c) {
+    for (int b = 0; b < bins; ++b) {
+      x(static_cast<Eigen::Index>(c - begin), b) =
+          UnitValue(holistic[c * static_cast<size_t>(bins) + static_cast<size_t>(b)]);
+    }
+  }
+  return x;
+}
+
 }  // namespace
+
+RowMatrix KMeans(const RowMatrix& x, int k, int iterations, std::mt19937* rng) {
+  const auto n = static_cast<size_t>(x.rows());
+  std::vector<Eigen::Index> order(n);
+  std::iota(order.begin(), order.end(), 0);
+  std::shuffle(order.begin(), order.end(), *rng);
+  RowMatrix centres(k, x.cols());
+  for (int c = 0; c < k; ++c) centres.row(c) = x.row(order[static_cast<size_t>(c)]);
+  const Eigen::VectorXf x2 = x.rowwise().squaredNorm();
+  std::vector<int> assigned(n);
+  std::vector<float> distance(n);
+  for (int iteration = 0; iteration < iterations; ++iteration) {
+    const Eigen::VectorXf c2 = centres.rowwise().squaredNorm();
+    const Eigen::MatrixXf dots = centres * x.transpose();
+    for (size_t i = 0; i < n; ++i) {
+      Eigen::Index best = 0;
+      const float d = (c2 - 2.0f * dots.col(static_cast<Eigen::Index>(i))).minCoeff(&best);
+      assigned[i] = static_cast<int>(best);
+      distance[i] = d + x2[static_cast<Eigen::Index>(i)];
+    }
+    RowMatrix sums = RowMatrix::Zero(k, x.cols());
+    std::vector<int> counts(static_cast<size_t>(k), 0);
+    for (size_t i = 0; i < n; ++i) {
+      sums.row(assigned[i]) += x.row(static_cast<Eigen::Index>(i));
+      ++counts[static_cast<size_t>(assigned[i])];
+    }
+    for (int c = 0; c < k; ++c) {
+      if (counts[static_cast<size_t>(c)] > 0) {
+        centres.row(c) = sums.row(c) / static_cast<float>(counts[static_cast<size_t>(c)]);
+        continue;
+      }
+      const auto far = static_cast<size_t>(std::max_element(distance.begin(), distance.end()) -
+                                           distance.begin());
+      centres.row(c) = x.row(static_cast<Eigen::Index>(far));
+      distance[far] = 0;
+    }
+  }
+  return centres;
+}
+
+HolisticCodes CodeHolistic(const std::vector<uint8_t>& holistic, const HolisticGrid& grid, size_t n,
+                           ThreadPool* pool) {
+  HolisticCodes h;
+  const size_t cells = n * static_cast<size_t>(grid.cells());
+  if (grid.empty() || cells == 0) return h;
+  h.bins = grid.bins;
+  // The codebook from evenly sampled cells; a tour of fewer distinct cells than codes
+  // repeats them (the spare codes are never nearest).
+  const size_t samples = std::min(cells, kCodebookSamples);
+  RowMatrix sample(static_cast<Eigen::Index>(samples), grid.bins);
+  for (size_t i = 0; i < samples; ++i) {
+    sample.row(static_cast<Eigen::Index>(i)) =
+        CellValues(holistic, grid.bins, i * cells / samples, i * cells / samples + 1);
+  }
+  RowMatrix codebook(kHolisticCodes, grid.bins);
+  if (samples >= static_cast<size_t>(kHolisticCodes)) {
+    std::mt19937 rng(20261208);
+    codebook = KMeans(sample, kHolisticCodes, kCodebookIterations, &rng);
+  } else {
+    for (int c = 0; c < kHolisticCodes; ++c)
+      codebook.row(c) = sample.row(c % static_cast<int>(samples));
+  }
+  h.codebook.assign(codebook.data(), codebook.data() + codebook.size());
+  h.codes.resize(cells);
+  constexpr size_t kCellsPerTask = 16384;
+  const auto code = [&](size_t first_task, size_t end_task) {
+    for (size_t t = first_task; t < end_task; ++t) {
+      const size_t begin = t * kCellsPerTask, end = std::min(cells, begin + kCellsPerTask);
+      const std::vector<uint32_t> nearest =
+          Nearest(CellValues(holistic, grid.bins, begin, end), codebook);
+      for (size_t c = begin; c < end; ++c) h.codes[c] = static_cast<uint8_t>(nearest[c - begin]);
+    }
+  };
+  const size_t tasks = (cells + kCellsPerTask - 1) / kCellsPerTask;
+  if (pool != nullptr) {
+    pool->ParallelFor(tasks, 1, code);
+  } else {
+    code(0, tasks);
+  }
+  return h;
+}
 
 std::vector<uint32_t> AssignCells(const Vocabulary& v, const DescriptorMatrix& descriptors) {
   return Nearest(descriptors, v.centroids.topRows(v.coarse));
@@ -270,17 +352,6 @@ std::vector<uint32_t> AssignWords(const Vocabulary& v, const DescriptorMatrix& d
     }
   }
   return word;
-}
-
-void ShiftedCells(const float* descriptor, const HolisticGrid& grid, int shift, bool query,
-                  std::vector<float>* out) {
-  const int begin = ShiftBegin(shift, query);
-  const int width = grid.cols - std::abs(shift);
-  out->clear();
-  for (int r = 0; r < grid.rows; ++r) {
-    const float* row = descriptor + (static_cast<size_t>(r) * grid.cols + begin) * grid.bins;
-    out->insert(out->end(), row, row + static_cast<size_t>(width) * grid.bins);
-  }
 }
 
 }  // namespace sceneloc

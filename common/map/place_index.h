@@ -10,23 +10,25 @@
 //     k-means: `coarse` cells of `fine` words each) and the word of every landmark: a
 //     query's features vote, through an inverted file, for the locations whose landmarks
 //     share their words (tf-idf);
-//   - the holistic descriptor of every location projected, for each lateral shift the
-//     holistic comparison allows, onto the principal axes of the tour's descriptors at that
-//     shift: a query's approximate holistic distance to every location costs a few dozen
-//     multiply-adds a location instead of a few thousand.
+//   - the holistic descriptor of every location with each of its cells coded as one byte
+//     (HolisticCodes): a query's approximate holistic distance to every location, at every
+//     lateral shift the holistic comparison allows, costs one table look-up a cell instead
+//     of a dozen multiply-adds.
 //
 // Built at training (common/training/place_index_builder.h) and stored in the map; the
 // inverted file is derived when the map is finalised. A map without one (small maps, maps
-// of format version <= 4) is searched whole.
+// of format versions older than 4) is searched whole.
 //
 // Thread-safe once built: read-only.
 #pragma once
 
 #include <cstdint>
+#include <random>
 #include <vector>
 
 #include "common/features/feature_set.h"
 #include "common/util/status.h"
+#include "common/util/thread_pool.h"
 
 namespace sceneloc {
 
@@ -41,34 +43,44 @@ struct Vocabulary {
   bool empty() const { return coarse == 0; }
 };
 
-// The holistic descriptors of a tour, projected per lateral shift (see HolisticDistance:
-// shift s compares query cells (r, c) with tour cells (r, c - s)).
-struct HolisticProjection {
-  int max_shift = 0;  // shifts -max_shift .. max_shift, 2 * max_shift + 1 of them
-  int dims = 0;       // principal axes kept per shift
-  // Per shift k (shift k - max_shift), over the span_k tour cell values that shift compares
-  // (ShiftSpan), shift after shift: the mean (span_k values) and the axes (dims x span_k,
-  // axis after axis).
-  std::vector<float> mean;
-  std::vector<float> axes;
-  // Per location, per shift: the projection (dims values) and the squared norm of what the
-  // axes leave out.
-  std::vector<float> projected;  // locations x shifts x dims
-  std::vector<float> residual;   // locations x shifts
+// The holistic descriptors of a tour, every cell coded as the nearest of kHolisticCodes cell
+// histograms fitted on the tour's cells: product quantisation with the grid's cells as the
+// subspaces (Jegou, Douze & Schmid, "Product quantization for nearest neighbor search",
+// PAMI 2011). A query's distance to a location, at every lateral shift, is then one table
+// look-up per cell (common/matching/place_search.h). Unlike principal axes of the tour's
+// descriptors, which keep what most of the map varies in and lose the rest (on a map that
+// is mostly another route, most of what tells this route's places apart), a cell's code
+// errs by the same small amount whatever the rest of the map holds.
+inline constexpr int kHolisticCodes = 256;  // one byte a cell
+struct HolisticCodes {
+  int bins = 0;                 // values per cell: the grid's orientation bins
+  std::vector<float> codebook;  // kHolisticCodes x bins, code after code
+  std::vector<uint8_t> codes;   // per location, per cell (row after row): the cell's code
 
-  int num_shifts() const { return 2 * max_shift + 1; }
-  bool empty() const { return dims == 0; }
-  // Where shift k's values start in `mean` (times dims: in `axes`).
-  size_t MeanOffset(int k, const HolisticGrid& grid) const;
+  bool empty() const { return codebook.empty(); }
 };
 
-// The values the holistic comparison at `shift` reads of each descriptor on `grid`.
-size_t ShiftSpan(const HolisticGrid& grid, int shift);
+// Rows of values, as k-means reads and writes them.
+using RowMatrix = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+// Lloyd's k-means of the rows of `x` into k centres (k <= rows) over `iterations` rounds,
+// seeded by k distinct rows drawn with `rng`; an emptied centre is moved to the row
+// furthest from its own.
+RowMatrix KMeans(const RowMatrix& x, int k, int iterations, std::mt19937* rng);
+
+// The codes of `n` tour descriptors on `grid`, stored as unit bytes (Map::holistic): the
+// codebook by Lloyd's k-means over at most 65,536 of their cells (evenly sampled, seeded:
+// the same descriptors give the same codes), then every cell's nearest code. Empty for an
+// empty grid. `pool` (may be null) spreads the coding.
+HolisticCodes CodeHolistic(const std::vector<uint8_t>& holistic, const HolisticGrid& grid, size_t n,
+                           ThreadPool* pool);
 
 struct PlaceIndex {
   Vocabulary vocabulary;
   std::vector<uint32_t> landmark_word;  // one per landmark
-  HolisticProjection holistic;
+  // Empty in a map read from format versions 4-7 until the map is finalised (Map::Finalize
+  // codes its holistic descriptors then).
+  HolisticCodes holistic;
 
   bool empty() const { return vocabulary.empty(); }
 };
@@ -126,11 +138,5 @@ std::vector<uint32_t> AssignCells(const Vocabulary& vocabulary,
 // REQUIRES: !vocabulary.empty() and every cell's words present.
 std::vector<uint32_t> AssignWords(const Vocabulary& vocabulary,
                                   const DescriptorMatrix& descriptors);
-
-// The values of the tour cells that shift `shift` compares (HolisticDistance), row after
-// row, from a descriptor on `grid`: the columns [max(0, -shift), cols - max(0, shift)).
-// query = true gives the query's side instead: [max(0, shift), cols + min(0, shift)).
-void ShiftedCells(const float* descriptor, const HolisticGrid& grid, int shift, bool query,
-                  std::vector<float>* out);
 
 }  // namespace sceneloc

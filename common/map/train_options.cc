@@ -55,9 +55,6 @@ SettingTable TrainSettings(TrainOptions* o) {
           .Unit("locations")
           .Help("maps this large get a coarse stage that picks the locations a query is scored "
                 "against (0 = never: every query scores every landmark)"),
-      Setting("place_index", "holistic_dims", &o->place_index_dims)
-          .Range(1, 256)
-          .Help("principal axes of the holistic descriptors kept per lateral shift"),
       Setting("calibration", "tolerance", &o->tolerance)
           .Range(0, 100)
           .Unit("frames")

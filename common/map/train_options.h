@@ -81,8 +81,6 @@ struct TrainOptions {
   // locations each query is scored against; smaller maps are searched whole (the paper).
   // 0 = never.
   int place_index_min_locations = 400;
-  // Principal axes of the holistic descriptors kept per lateral shift.
-  int place_index_dims = 32;
 
   // --- Confidence (common/matching/confidence.h; our departure) ---
   // The confidence is the probability that the answer lies within this many tour frames of

@@ -104,77 +104,80 @@ std::vector<float> WordScores(const FeatureSet& features, const Map& map, int ha
   return score;
 }
 
-ApproximateHolistic ApproximateHolisticDistances(const FeatureSet& features, const Map& map,
-                                                 ThreadPool* pool) {
-  const HolisticProjection& h = map.place_index.holistic;
-  ApproximateHolistic out;
-  if (h.empty() || features.holistic.empty()) return out;
+std::vector<float> ApproximateHolisticDistances(const FeatureSet& features, const Map& map,
+                                                ThreadPool* pool) {
+  const HolisticCodes& h = map.place_index.holistic;
+  if (h.empty() || features.holistic.empty()) return {};
   const HolisticGrid& grid = map.holistic_grid;
-  const int shifts = h.num_shifts(), dims = h.dims;
+  const int cols = grid.cols, cells = grid.cells(), bins = grid.bins;
+  const int max_shift = std::clamp(map.options.extractor.holistic.max_shift, 0, cols - 1);
+  const int shifts = 2 * max_shift + 1;
   const size_t n = static_cast<size_t>(map.num_images());
-  // Per shift: the query's projection z, what the axes leave of it, and the cells compared.
-  std::vector<float> z(static_cast<size_t>(shifts * dims)), rest(static_cast<size_t>(shifts));
-  std::vector<float> cells_per_shift(static_cast<size_t>(shifts));
-  std::vector<float> cells;
-  for (int k = 0; k < shifts; ++k) {
-    const int shift = k - h.max_shift;
-    ShiftedCells(features.holistic.data(), grid, shift, /*query=*/true, &cells);
-    const size_t offset = h.MeanOffset(k, grid);
-    const size_t span = cells.size();
-    float norm = 0;
-    for (size_t i = 0; i < span; ++i) {
-      cells[i] -= h.mean[offset + i];
-      norm += cells[i] * cells[i];
+  constexpr size_t kCodes = kHolisticCodes;
+  // Every query cell's squared distance to every code.
+  std::vector<float> to_code(static_cast<size_t>(cells) * kCodes);
+  float largest = 0;
+  for (int q = 0; q < cells; ++q) {
+    const float* cell = features.holistic.data() + static_cast<size_t>(q) * bins;
+    for (size_t j = 0; j < kCodes; ++j) {
+      const float* code = h.codebook.data() + j * static_cast<size_t>(bins);
+      float d = 0;
+      for (int b = 0; b < bins; ++b) d += (cell[b] - code[b]) * (cell[b] - code[b]);
+      to_code[static_cast<size_t>(q) * kCodes + j] = d;
+      largest = std::max(largest, d);
     }
-    float projected = 0;
-    for (int a = 0; a < dims; ++a) {
-      const float* axis = h.axes.data() + offset * dims + static_cast<size_t>(a) * span;
-      float dot = 0;
-      for (size_t i = 0; i < span; ++i) dot += axis[i] * cells[i];
-      z[static_cast<size_t>(k * dims + a)] = dot;
-      projected += dot * dot;
-    }
-    rest[static_cast<size_t>(k)] = std::max(0.0f, norm - projected);
-    cells_per_shift[static_cast<size_t>(k)] =
-        static_cast<float>(grid.rows * (grid.cols - std::abs(shift)));
   }
-  // Within the axes, |z - y|^2 per compared cell: the nearness. As a distance,
-  // |q - t|^2 ~ |z - y|^2 + both residuals (the parts the axes leave out taken as
-  // orthogonal). Each the least over the shifts.
-  out.nearness.resize(n);
-  out.distance.resize(n);
-  const auto measure = [&](size_t begin, size_t end) {
-    for (size_t l = begin; l < end; ++l) {
-      float nearest = std::numeric_limits<float>::max(), best = nearest;
-      for (int k = 0; k < shifts; ++k) {
-        const float* y = h.projected.data() + (l * shifts + k) * dims;
-        const float* q = z.data() + k * dims;
-        float d2 = 0;
-        for (int a = 0; a < dims; ++a) d2 += (q[a] - y[a]) * (q[a] - y[a]);
-        const float cells = cells_per_shift[static_cast<size_t>(k)];
-        nearest = std::min(nearest, d2 / cells);
-        best = std::min(best,
-                        (d2 + rest[static_cast<size_t>(k)] + h.residual[l * shifts + k]) / cells);
+  // Sums in 16-bit fixed point, kLanes shifts at a time (one SIMD add a cell): a table
+  // entry is at most 65535 / cells, so a location's sum over its cells cannot overflow.
+  using Lanes = uint16_t __attribute__((vector_size(16)));
+  constexpr int kLanes = 8;
+  const float limit = std::floor(65535.0f / static_cast<float>(cells));
+  const float scale = largest > 0 ? limit / largest : 0.0f;
+  std::vector<float> out(n, std::numeric_limits<float>::max());
+  std::vector<Lanes> table(static_cast<size_t>(cells) * kCodes);
+  for (int first = 0; first < shifts; first += kLanes) {
+    // Tour cell (r, c) with code j, lane i (shift s = first + i - max_shift): the distance of
+    // query cell (r, c + s) to code j, or 0 where that cell is off the grid (HolisticDistance
+    // compares query (r, c) with tour (r, c - s)).
+    for (int p = 0; p < cells; ++p) {
+      const int r = p / cols, c = p % cols;
+      for (size_t j = 0; j < kCodes; ++j) {
+        Lanes entry = {};
+        for (int i = 0; i < kLanes && first + i < shifts; ++i) {
+          const int qc = c + first + i - max_shift;
+          if (qc < 0 || qc >= cols) continue;
+          const float d = to_code[static_cast<size_t>(r * cols + qc) * kCodes + j];
+          entry[i] = static_cast<uint16_t>(std::min(limit, std::floor(d * scale + 0.5f)));
+        }
+        table[static_cast<size_t>(p) * kCodes + j] = entry;
       }
-      out.nearness[l] = nearest;
-      out.distance[l] = best;
     }
-  };
-  constexpr size_t kLocationsPerTask = 2048;
-  if (pool != nullptr) {
-    pool->ParallelFor(n, kLocationsPerTask, measure);
-  } else {
-    measure(0, n);
+    const auto measure = [&](size_t begin, size_t end) {
+      for (size_t l = begin; l < end; ++l) {
+        const uint8_t* code = h.codes.data() + l * static_cast<size_t>(cells);
+        Lanes sum = {};
+        for (int p = 0; p < cells; ++p) sum += table[static_cast<size_t>(p) * kCodes + code[p]];
+        for (int i = 0; i < kLanes && first + i < shifts; ++i) {
+          const int overlap = grid.rows * (cols - std::abs(first + i - max_shift));
+          out[l] = std::min(out[l], static_cast<float>(sum[i]) / (scale * overlap));
+        }
+      }
+    };
+    constexpr size_t kLocationsPerTask = 2048;
+    if (scale == 0) {
+      std::fill(out.begin(), out.end(), 0.0f);  // every query cell is at every code
+    } else if (pool != nullptr) {
+      pool->ParallelFor(n, kLocationsPerTask, measure);
+    } else {
+      measure(0, n);
+    }
   }
   return out;
 }
 
-std::vector<int> HolisticShortlist(const ApproximateHolistic& approximate, int count) {
-  std::vector<int> shortlist = Top(approximate.nearness, count, /*highest=*/false);
-  const std::vector<int> by_distance = Top(approximate.distance, count, /*highest=*/false);
-  shortlist.insert(shortlist.end(), by_distance.begin(), by_distance.end());
+std::vector<int> HolisticShortlist(const std::vector<float>& approximate, int count) {
+  std::vector<int> shortlist = Top(approximate, count, /*highest=*/false);
   std::sort(shortlist.begin(), shortlist.end());
-  shortlist.erase(std::unique(shortlist.begin(), shortlist.end()), shortlist.end());
   return shortlist;
 }
 
@@ -216,14 +219,14 @@ PlaceSearch SearchPlaces(const FeatureSet& features, const Map& map, const Match
   };
   pick(WordScores(features, map, options.place_hamming_max, pool), options.place_word_top,
        /*highest=*/true);
-  ApproximateHolistic approximate = ApproximateHolisticDistances(features, map, pool);
-  // The approximation ranks the nearest only roughly: its shortlist is measured exactly, and
-  // the nearest of those are the candidates.
-  const bool refine = !approximate.distance.empty() && options.place_holistic_top > 0;
+  search.holistic = ApproximateHolisticDistances(features, map, pool);
+  // The nearest by the approximation are measured exactly, and the nearest of those are the
+  // candidates.
+  const bool refine = !search.holistic.empty() && options.place_holistic_top > 0;
   const std::vector<int> shortlist =
-      refine ? HolisticShortlist(approximate, std::max(kHolisticRefine, options.place_holistic_top))
+      refine ? HolisticShortlist(search.holistic,
+                                 std::max(kHolisticRefine, options.place_holistic_top))
              : std::vector<int>();
-  search.holistic = std::move(approximate.distance);
   if (refine) {
     const std::vector<float> exact = HolisticDistancesTo(
         features, map, shortlist, map.options.extractor.holistic.max_shift, pool);

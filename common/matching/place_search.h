@@ -6,7 +6,7 @@
 // Candidates come from both kinds of evidence sceneloc fuses: the place_word_top locations
 // whose landmarks share most of the query's visual words (tf-idf votes through the inverted
 // file, each word match checked by its Hamming signature) and the place_holistic_top locations the
-// query looks most like as a whole (the shortlist of the approximate holistic distances,
+// query looks most like as a whole (the nearest by the approximate holistic distances,
 // HolisticShortlist, measured exactly); each with place_expand locations either side, so the
 // answer's neighbours, whose landmarks S_N and the confidence read, are scored too. With
 // place_distinct (the default) the picks are distinct places: a location already among the
@@ -25,7 +25,7 @@
 
 namespace sceneloc {
 
-// Locations each approximate holistic ranking shortlists to be measured exactly.
+// Locations the approximate holistic distances shortlist to be measured exactly.
 constexpr int kHolisticRefine = 128;
 
 struct PlaceSearch {
@@ -52,27 +52,17 @@ PlaceSearch SearchPlaces(const FeatureSet& features, const Map& map, const Match
 std::vector<float> WordScores(const FeatureSet& features, const Map& map, int hamming_max,
                               ThreadPool* pool = nullptr);
 
-// The holistic distance to every tour location through the map's principal axes
-// (place_index.h HolisticProjection), at the lateral shift nearest within them:
-struct ApproximateHolistic {
-  // Within the axes alone.
-  std::vector<float> nearness;
-  // With the parts the axes leave out added as if orthogonal: HolisticDistance's scale, read
-  // as the distance of the locations not measured exactly.
-  std::vector<float> distance;
-};
-// Both empty without holistic descriptors on both sides.
-ApproximateHolistic ApproximateHolisticDistances(const FeatureSet& features, const Map& map,
-                                                 ThreadPool* pool = nullptr);
+// The holistic distance to every tour location with the location's cells read as their
+// codes (place_index.h HolisticCodes), on HolisticDistance's scale: close to it (a cell's
+// code errs by a little whatever else the map holds), so the nearest by it hold the nearest
+// by the exact distance (on a map padded with 19,689 generated locations, the shortlist of
+// 128 held a place within +-2 of the true one for as many Gardens Point night queries as the
+// exact distance over the whole map; bench/place_recall). Empty without holistic
+// descriptors on both sides. REQUIRES: the query's grid is the map's.
+std::vector<float> ApproximateHolisticDistances(const FeatureSet& features, const Map& map,
+                                                ThreadPool* pool = nullptr);
 
-// The locations to measure exactly: the `count` nearest by either approximation, ascending.
-// Each ranks well where the other fails. With the residuals, on a map of one route whose
-// axes describe it (what the axes leave out is part of the difference between places);
-// without, on a map that is mostly something else (the axes fitted on the other route miss
-// much of this route's images, and the residuals' size then says how much they miss, not
-// how near an image is: on a map padded with 19,689 generated locations, the shortlist by
-// distance held a place within +-2 of Gardens Point day_right queries' truth for 62 of 100
-// at 4 picks, by nearness for 95; bench/place_recall).
-std::vector<int> HolisticShortlist(const ApproximateHolistic& approximate, int count);
+// The `count` locations nearest by `approximate`, ascending: those measured exactly.
+std::vector<int> HolisticShortlist(const std::vector<float>& approximate, int count);
 
 }  // namespace sceneloc

@@ -1,6 +1,5 @@
 #include "common/training/place_index_builder.h"
 
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <numeric>
@@ -14,16 +13,6 @@ constexpr int kKMeansIterations = 10;
 // cell fits its words, at most kFineSamples of them.
 constexpr size_t kCoarseSamples = 65536;
 constexpr size_t kFineSamples = 8192;
-// Tour locations the holistic axes are fitted on, at most.
-constexpr size_t kAxisSamples = 1024;
-
-// Rows of `data` at `rows`.
-DescriptorMatrix Gather(const DescriptorMatrix& data, const std::vector<uint32_t>& rows) {
-  DescriptorMatrix out(static_cast<Eigen::Index>(rows.size()), kDescriptorSize);
-  for (size_t i = 0; i < rows.size(); ++i)
-    out.row(static_cast<Eigen::Index>(i)) = data.row(rows[i]);
-  return out;
-}
 
 // At most `limit` of [0, n), evenly spaced.
 std::vector<uint32_t> EvenSample(size_t n, size_t limit) {
@@ -60,47 +49,6 @@ std::vector<uint32_t> AssignLandmarks(const Vocabulary& v, const Map& map, Assig
   return words;
 }
 
-// Lloyd's k-means of the rows of `x` into k centres (k <= rows), seeded by k distinct rows
-// drawn with `rng`; an emptied centre is moved to the row furthest from its own.
-DescriptorMatrix KMeans(const DescriptorMatrix& x, int k, std::mt19937* rng) {
-  const auto n = static_cast<size_t>(x.rows());
-  std::vector<uint32_t> order(n);
-  std::iota(order.begin(), order.end(), 0);
-  std::shuffle(order.begin(), order.end(), *rng);
-  order.resize(static_cast<size_t>(k));
-  DescriptorMatrix centres = Gather(x, order);
-  const Eigen::VectorXf x2 = x.rowwise().squaredNorm();
-  std::vector<int> assigned(n);
-  std::vector<float> distance(n);
-  for (int iteration = 0; iteration < kKMeansIterations; ++iteration) {
-    const Eigen::VectorXf c2 = centres.rowwise().squaredNorm();
-    const Eigen::MatrixXf dots = centres * x.transpose();
-    for (size_t i = 0; i < n; ++i) {
-      Eigen::Index best = 0;
-      const float d = (c2 - 2.0f * dots.col(static_cast<Eigen::Index>(i))).minCoeff(&best);
-      assigned[i] = static_cast<int>(best);
-      distance[i] = d + x2[static_cast<Eigen::Index>(i)];
-    }
-    DescriptorMatrix sums = DescriptorMatrix::Zero(k, kDescriptorSize);
-    std::vector<int> counts(static_cast<size_t>(k), 0);
-    for (size_t i = 0; i < n; ++i) {
-      sums.row(assigned[i]) += x.row(static_cast<Eigen::Index>(i));
-      ++counts[static_cast<size_t>(assigned[i])];
-    }
-    for (int c = 0; c < k; ++c) {
-      if (counts[static_cast<size_t>(c)] > 0) {
-        centres.row(c) = sums.row(c) / static_cast<float>(counts[static_cast<size_t>(c)]);
-        continue;
-      }
-      const auto far = static_cast<size_t>(std::max_element(distance.begin(), distance.end()) -
-                                           distance.begin());
-      centres.row(c) = x.row(static_cast<Eigen::Index>(far));
-      distance[far] = 0;
-    }
-  }
-  return centres;
-}
-
 void BuildVocabulary(Map* map, ThreadPool* pool) {
   const size_t n = static_cast<size_t>(map->num_landmarks());
   const int side = VocabularySide(n);
@@ -110,7 +58,7 @@ void BuildVocabulary(Map* map, ThreadPool* pool) {
   v.centroids.resize(static_cast<Eigen::Index>(side) * (1 + side), kDescriptorSize);
   std::mt19937 rng(20261206);
   const DescriptorMatrix sample = GatherMeans(*map, EvenSample(n, kCoarseSamples));
-  v.centroids.topRows(side) = KMeans(sample, side, &rng);
+  v.centroids.topRows(side) = KMeans(sample, side, kKMeansIterations, &rng);
   // Each cell's words from its own landmarks (all of the map's, sampled), the cells in
   // parallel with a seed each.
   const std::vector<uint32_t> cell_of = AssignLandmarks(v, *map, AssignCells);
@@ -130,7 +78,7 @@ void BuildVocabulary(Map* map, ThreadPool* pool) {
       // A cell with fewer landmarks than words repeats them: its spare words stay empty.
       std::mt19937 cell_rng(static_cast<uint32_t>(c) * 7919u + 1);
       if (x.rows() >= side) {
-        fine = KMeans(x, side, &cell_rng);
+        fine = KMeans(x, side, kKMeansIterations, &cell_rng);
       } else {
         for (int w = 0; w < side; ++w) fine.row(w) = x.row(w % x.rows());
       }
@@ -142,80 +90,6 @@ void BuildVocabulary(Map* map, ThreadPool* pool) {
     fit(0, members.size());
   }
   map->place_index.landmark_word = AssignLandmarks(v, *map, AssignWords);
-}
-
-// The axes of one shift from the sampled locations' centred values (a Gram matrix of at
-// most kAxisSamples rows), then every location's projection and residual.
-void ProjectShift(const Map& map, int k, HolisticProjection* h) {
-  const int shift = k - h->max_shift;
-  const HolisticGrid& grid = map.holistic_grid;
-  const auto span = static_cast<Eigen::Index>(ShiftSpan(grid, shift));
-  const size_t n = static_cast<size_t>(map.num_images());
-  Eigen::MatrixXf values(static_cast<Eigen::Index>(n), span);
-  std::vector<float> cells;
-  for (size_t l = 0; l < n; ++l) {
-    ShiftedCells(map.HolisticValues(static_cast<int>(l)).data(), grid, shift, /*query=*/false,
-                 &cells);
-    values.row(static_cast<Eigen::Index>(l)) =
-        Eigen::Map<const Eigen::RowVectorXf>(cells.data(), span);
-  }
-  const Eigen::RowVectorXf mean = values.colwise().mean();
-  values.rowwise() -= mean;
-  const std::vector<uint32_t> rows = EvenSample(n, kAxisSamples);
-  Eigen::MatrixXd sample(static_cast<Eigen::Index>(rows.size()), span);
-  for (size_t i = 0; i < rows.size(); ++i) {
-    sample.row(static_cast<Eigen::Index>(i)) = values.row(rows[i]).cast<double>();
-  }
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> solver(sample * sample.transpose());
-  const int dims = h->dims;
-  Eigen::MatrixXf axes = Eigen::MatrixXf::Zero(dims, span);
-  for (int a = 0; a < dims && a < sample.rows(); ++a) {
-    const Eigen::Index column = sample.rows() - 1 - a;  // eigenvalues come in increasing order
-    const double value = solver.eigenvalues()[column];
-    if (!(value > 1e-12)) break;  // fewer distinct locations than axes: the rest stay zero
-    axes.row(a) = (sample.transpose() * solver.eigenvectors().col(column) / std::sqrt(value))
-                      .cast<float>()
-                      .transpose();
-  }
-  const size_t offset = h->MeanOffset(k, grid);
-  std::copy(mean.data(), mean.data() + span, h->mean.begin() + static_cast<std::ptrdiff_t>(offset));
-  // Row-major copy: axes.row(a) of a column-major matrix is strided.
-  Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> axes_rows = axes;
-  std::copy(axes_rows.data(), axes_rows.data() + axes_rows.size(),
-            h->axes.begin() + static_cast<std::ptrdiff_t>(offset * dims));
-  const Eigen::MatrixXf projected = values * axes.transpose();  // n x dims
-  const int shifts = h->num_shifts();
-  for (size_t l = 0; l < n; ++l) {
-    const auto row = static_cast<Eigen::Index>(l);
-    float* out = h->projected.data() + (l * shifts + k) * dims;
-    for (int a = 0; a < dims; ++a) out[a] = projected(row, a);
-    h->residual[l * shifts + k] =
-        std::max(0.0f, values.row(row).squaredNorm() - projected.row(row).squaredNorm());
-  }
-}
-
-void BuildHolisticProjection(Map* map, ThreadPool* pool) {
-  HolisticProjection& h = map->place_index.holistic;
-  h = HolisticProjection();
-  if (!map->has_holistic()) return;
-  const HolisticGrid& grid = map->holistic_grid;
-  h.max_shift = std::clamp(map->options.extractor.holistic.max_shift, 0, grid.cols - 1);
-  h.dims = map->options.place_index_dims;
-  const int shifts = h.num_shifts();
-  const size_t values = h.MeanOffset(shifts, grid);
-  h.mean.assign(values, 0.0f);
-  h.axes.assign(values * static_cast<size_t>(h.dims), 0.0f);
-  const size_t n = static_cast<size_t>(map->num_images());
-  h.projected.assign(n * static_cast<size_t>(shifts) * h.dims, 0.0f);
-  h.residual.assign(n * static_cast<size_t>(shifts), 0.0f);
-  auto run = [&](size_t begin, size_t end) {
-    for (size_t k = begin; k < end; ++k) ProjectShift(*map, static_cast<int>(k), &h);
-  };
-  if (pool != nullptr) {
-    pool->ParallelFor(static_cast<size_t>(shifts), 1, run);
-  } else {
-    run(0, static_cast<size_t>(shifts));
-  }
 }
 
 }  // namespace
@@ -230,7 +104,8 @@ void BuildPlaceIndex(Map* map, ThreadPool* pool) {
   const int min_locations = map->options.place_index_min_locations;
   if (min_locations == 0 || map->num_images() < min_locations || map->num_landmarks() == 0) return;
   BuildVocabulary(map, pool);
-  BuildHolisticProjection(map, pool);
+  map->place_index.holistic =
+      CodeHolistic(map->holistic, map->holistic_grid, static_cast<size_t>(map->num_images()), pool);
 }
 
 }  // namespace sceneloc

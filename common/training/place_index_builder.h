@@ -1,7 +1,6 @@
 // Builds a map's place index (common/map/place_index.h) at training: the vocabulary of
 // visual words by two levels of k-means over the landmarks' local means, every landmark's
-// word, and the principal axes of the tour's holistic descriptors at each lateral shift
-// with every location projected onto them.
+// word, and the codes of the tour's holistic descriptors (place_index.h HolisticCodes).
 //
 // Deterministic for the same map (seeded sampling); thread-compatible.
 #pragma once

@@ -24,6 +24,11 @@ TEST(ConfigTest, RejectsUnknownKeysWrongTypesAndRanges) {
   EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
   EXPECT_NE(s.message().find("unknown key 'extractor.max_feature'"), std::string::npos);
   EXPECT_NE(s.message().find("train.yaml"), std::string::npos);
+  // A key of an older version says it is gone and why.
+  s = ParseTrainOptions("place_index:\n  holistic_dims: 32\n", "old.yaml", &o);
+  EXPECT_NE(s.message().find("old.yaml: place_index.holistic_dims is no longer a setting"),
+            std::string::npos)
+      << s.message();
   s = ParseTrainOptions("trackin:\n  x: 1\n", "t", &o);
   EXPECT_NE(s.message().find("unknown section 'trackin'"), std::string::npos);
   s = ParseTrainOptions("tracking:\n  distance_threshold: abc\n", "t", &o);

@@ -224,7 +224,6 @@ void ExpectOptionsEqual(const TrainOptions& a, const TrainOptions& b) {
   EXPECT_EQ(a.q_min, b.q_min);
   EXPECT_EQ(a.quality_window, b.quality_window);
   EXPECT_EQ(a.place_index_min_locations, b.place_index_min_locations);
-  EXPECT_EQ(a.place_index_dims, b.place_index_dims);
   EXPECT_EQ(a.max_neighbours, b.max_neighbours);
   EXPECT_EQ(a.tolerance, b.tolerance);
   EXPECT_EQ(a.confidence_temperature, b.confidence_temperature);
@@ -290,12 +289,9 @@ void ExpectMapsEqual(const Map& a, const Map& b) {
   EXPECT_EQ(p.vocabulary.fine, q.vocabulary.fine);
   EXPECT_TRUE(p.vocabulary.centroids == q.vocabulary.centroids);
   ExpectArraysEqual("landmark_word", p.landmark_word, q.landmark_word);
-  EXPECT_EQ(p.holistic.max_shift, q.holistic.max_shift);
-  EXPECT_EQ(p.holistic.dims, q.holistic.dims);
-  ExpectArraysEqual("holistic_mean", p.holistic.mean, q.holistic.mean);
-  ExpectArraysEqual("holistic_axes", p.holistic.axes, q.holistic.axes);
-  ExpectArraysEqual("holistic_projected", p.holistic.projected, q.holistic.projected);
-  ExpectArraysEqual("holistic_residual", p.holistic.residual, q.holistic.residual);
+  EXPECT_EQ(p.holistic.bins, q.holistic.bins);
+  ExpectArraysEqual("holistic_codebook", p.holistic.codebook, q.holistic.codebook);
+  ExpectArraysEqual("holistic_codes", p.holistic.codes, q.holistic.codes);
 }
 
 }  // namespace sceneloc::test

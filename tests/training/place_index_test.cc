@@ -4,9 +4,13 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <limits>
 #include <numeric>
 
+#include "common/map/compact.h"
 #include "common/map/map_io.h"
+#include "common/map/map_layout.h"
+#include "common/map/payload_archive.h"
 #include "common/matching/descriptor_similarity.h"
 #include "common/matching/holistic_similarity.h"
 #include "common/matching/landmark_scope.h"
@@ -28,7 +32,6 @@ class PlaceIndexTest : public ::testing::Test {
     const TourOptions tour = test::SmallTour(kLocations, 4);
     TrainOptions options;
     options.place_index_min_locations = 20;
-    options.place_index_dims = 16;
     const std::vector<FeatureSet> features =
         test::ExtractTourPass(tour, kTrainingPass, options.extractor);
     std::vector<std::string> names;
@@ -53,7 +56,7 @@ Map* PlaceIndexTest::map_ = nullptr;
 std::vector<FeatureSet>* PlaceIndexTest::queries_ = nullptr;
 
 // A map of at least place_index_min_locations gets a valid index: a vocabulary sized to its
-// landmarks, a word for each, every location projected at every shift; it survives the map
+// landmarks, a word for each, every location's holistic cells coded; it survives the map
 // file, and the inverted file made from it on load holds every landmark of every G_l.
 TEST_F(PlaceIndexTest, TrainingBuildsAValidIndexThatTheMapFileKeeps) {
   const Map& map = *map_;
@@ -64,8 +67,11 @@ TEST_F(PlaceIndexTest, TrainingBuildsAValidIndexThatTheMapFileKeeps) {
   EXPECT_EQ(index.vocabulary.coarse, side);
   EXPECT_EQ(index.vocabulary.fine, side);
   EXPECT_EQ(index.landmark_word.size(), static_cast<size_t>(map.num_landmarks()));
-  EXPECT_EQ(index.holistic.dims, 16);
-  EXPECT_EQ(index.holistic.num_shifts(), 2 * map.options.extractor.holistic.max_shift + 1);
+  EXPECT_EQ(index.holistic.bins, map.holistic_grid.bins);
+  EXPECT_EQ(index.holistic.codebook.size(),
+            static_cast<size_t>(kHolisticCodes * map.holistic_grid.bins));
+  EXPECT_EQ(index.holistic.codes.size(),
+            static_cast<size_t>(map.num_images() * map.holistic_grid.cells()));
   auto parsed = ParseMap(SerializeMap(map), "resaved");
   ASSERT_TRUE(parsed.ok()) << parsed.status().ToString();
   test::ExpectMapsEqual(map, *parsed);
@@ -87,6 +93,30 @@ TEST_F(PlaceIndexTest, TrainingBuildsAValidIndexThatTheMapFileKeeps) {
     std::sort(words.begin(), words.end());
     EXPECT_EQ(posted[static_cast<size_t>(l)], words) << l;
   }
+}
+
+// A map of format version 7 stored principal axes of the holistic descriptors instead of
+// their codes: its payload is read past them, and the loaded map is coded as training codes
+// it, answering as today's map does.
+TEST_F(PlaceIndexTest, AVersionSevenMapIsCodedWhenLoaded) {
+  const Map& map = *map_;
+  std::string bytes;
+  map_io_internal::PayloadWriter writer(&bytes);
+  map_io_internal::V1Fields v1;
+  map_io_internal::TransferMap(writer, map, 7, v1);
+  EXPECT_LT(bytes.size(), SerializeMap(map).size());  // no codes, an empty projection
+  map_io_internal::MemorySource source(bytes.data());
+  map_io_internal::PayloadReader reader(&source, bytes.size());
+  Map read;
+  map_io_internal::TransferMap(reader, read, 7, v1);
+  ASSERT_TRUE(reader.status().ok()) << reader.status().ToString();
+  EXPECT_EQ(reader.remaining(), 0u);
+  EXPECT_TRUE(read.place_index.holistic.empty());
+  ASSERT_TRUE(read.Validate().ok());
+  read.Finalize();
+  test::ExpectMapsEqual(map, read);
+  const FeatureSet& q = queries_->front();
+  EXPECT_EQ(ApproximateHolisticDistances(q, read), ApproximateHolisticDistances(q, map));
 }
 
 // The signatures' axes are orthonormal and the same on every call (and machine: integer
@@ -175,21 +205,18 @@ TEST(PlaceIndexBuilderTest, NoIndexBelowTheSize) {
   EXPECT_TRUE(map.Validate().ok());
 }
 
-// The approximate holistic distance ranks like the exact one on a map of one route: each
-// query's exactly nearest location is among its approximately nearest few. It is on the
-// exact one's scale; what the axes leave out only adds to the nearness.
+// The approximate holistic distance ranks like the exact one: each query's exactly nearest
+// location is among its approximately nearest two, and the values are on the exact one's
+// scale. The shortlist is the nearest by it, ascending.
 TEST_F(PlaceIndexTest, ApproximateHolisticDistanceFindsTheNearest) {
   const Map& map = *map_;
   int within = 0;
   for (const FeatureSet& q : *queries_) {
     const std::vector<float> exact = HolisticDistances(q, map, 2, nullptr);
-    const ApproximateHolistic measured = ApproximateHolisticDistances(q, map);
-    const std::vector<float>& approximate = measured.distance;
+    const std::vector<float> approximate = ApproximateHolisticDistances(q, map);
     ASSERT_EQ(approximate.size(), exact.size());
-    ASSERT_EQ(measured.nearness.size(), exact.size());
     for (size_t l = 0; l < exact.size(); ++l) {
-      EXPECT_GE(approximate[l], measured.nearness[l]);
-      EXPECT_NEAR(measured.distance[l], exact[l], 0.5f * exact[l]) << "location " << l;
+      EXPECT_NEAR(approximate[l], exact[l], 0.25f * exact[l]) << "location " << l;
     }
     const int nearest =
         static_cast<int>(std::min_element(exact.begin(), exact.end()) - exact.begin());
@@ -197,35 +224,52 @@ TEST_F(PlaceIndexTest, ApproximateHolisticDistanceFindsTheNearest) {
         static_cast<int>(std::count_if(approximate.begin(), approximate.end(), [&](float d) {
           return d < approximate[static_cast<size_t>(nearest)];
         }));
-    within += rank < 5;
+    within += rank < 2;
+    const std::vector<int> shortlist = HolisticShortlist(approximate, 3);
+    EXPECT_EQ(shortlist.size(), 3u);
+    EXPECT_TRUE(std::is_sorted(shortlist.begin(), shortlist.end()));
+    if (rank < 3) {
+      EXPECT_NE(std::find(shortlist.begin(), shortlist.end(), nearest), shortlist.end());
+    }
   }
   EXPECT_GE(within, kLocations * 9 / 10);
 }
 
-// What the axes leave out of a location does not move it in the nearness: a location the axes
-// describe poorly (as a map's own route is when most of the map is another route) keeps its
-// nearness, only its distance grows, and the shortlist still holds it though its distance
-// ranks it last.
-TEST_F(PlaceIndexTest, ApproximateNearnessIgnoresWhatTheAxesMiss) {
-  Map map = *map_;
+// Every lateral shift the comparison allows is read: a location that holds the query's own
+// descriptor moved by s cells (its cells (r, c - s) are the query's (r, c)) is the nearest by
+// the approximation, at about its exact distance, for each s in [-max_shift, max_shift].
+TEST_F(PlaceIndexTest, ApproximateDistanceReadsEveryLateralShift) {
   const FeatureSet& q = queries_->front();
-  const ApproximateHolistic before = ApproximateHolisticDistances(q, map);
-  const int nearest = static_cast<int>(
-      std::min_element(before.nearness.begin(), before.nearness.end()) - before.nearness.begin());
-  const int shifts = map.place_index.holistic.num_shifts();
-  for (int k = 0; k < shifts; ++k) {
-    map.place_index.holistic.residual[static_cast<size_t>(nearest * shifts + k)] += 1e3f;
+  const HolisticGrid& grid = map_->holistic_grid;
+  const int max_shift = map_->options.extractor.holistic.max_shift;
+  ASSERT_GT(max_shift, 0);
+  constexpr int kPlanted = 30;
+  for (int shift = -max_shift; shift <= max_shift; ++shift) {
+    Map map = *map_;
+    uint8_t* planted = map.holistic.data() + static_cast<size_t>(kPlanted) * grid.size();
+    for (int r = 0; r < grid.rows; ++r) {
+      for (int c = 0; c < grid.cols; ++c) {
+        if (c - shift < 0 || c - shift >= grid.cols) continue;
+        for (int b = 0; b < grid.bins; ++b) {
+          const float v = q.holistic[static_cast<size_t>((r * grid.cols + c) * grid.bins + b)];
+          planted[(r * grid.cols + c - shift) * grid.bins + b] = UnitByte(v);
+        }
+      }
+    }
+    map.place_index.holistic =
+        CodeHolistic(map.holistic, grid, static_cast<size_t>(map.num_images()), nullptr);
+    const std::vector<float> approximate = ApproximateHolisticDistances(q, map);
+    const std::vector<float> exact = HolisticDistances(q, map, max_shift, nullptr);
+    EXPECT_EQ(std::min_element(approximate.begin(), approximate.end()) - approximate.begin(),
+              kPlanted)
+        << "shift " << shift;
+    EXPECT_LT(exact[kPlanted], 1e-4f) << "shift " << shift;
+    float others = std::numeric_limits<float>::max();  // the nearest other location, exactly
+    for (int l = 0; l < map.num_images(); ++l) {
+      if (l != kPlanted) others = std::min(others, exact[static_cast<size_t>(l)]);
+    }
+    EXPECT_LT(approximate[kPlanted], 0.5f * others) << "shift " << shift;
   }
-  const ApproximateHolistic after = ApproximateHolisticDistances(q, map);
-  EXPECT_EQ(after.nearness, before.nearness);
-  EXPECT_GT(after.distance[static_cast<size_t>(nearest)],
-            before.distance[static_cast<size_t>(nearest)]);
-  EXPECT_EQ(std::max_element(after.distance.begin(), after.distance.end()) - after.distance.begin(),
-            nearest);
-  const std::vector<int> shortlist = HolisticShortlist(after, 3);
-  EXPECT_TRUE(std::is_sorted(shortlist.begin(), shortlist.end()));
-  EXPECT_NE(std::find(shortlist.begin(), shortlist.end(), nearest), shortlist.end());
-  EXPECT_LE(shortlist.size(), 6u);
 }
 
 // A scope of every location is the whole map: the coarse stage asked for more candidates
@@ -325,10 +369,8 @@ TEST_F(PlaceIndexTest, APoolChangesNothing) {
   for (const FeatureSet& q : *queries_) {
     EXPECT_EQ(WordScores(q, *map_, options.place_hamming_max, &pool),
               WordScores(q, *map_, options.place_hamming_max));
-    const ApproximateHolistic spread_holistic = ApproximateHolisticDistances(q, *map_, &pool);
-    const ApproximateHolistic alone_holistic = ApproximateHolisticDistances(q, *map_);
-    EXPECT_EQ(spread_holistic.nearness, alone_holistic.nearness);
-    EXPECT_EQ(spread_holistic.distance, alone_holistic.distance);
+    EXPECT_EQ(ApproximateHolisticDistances(q, *map_, &pool),
+              ApproximateHolisticDistances(q, *map_));
     const PlaceSearch alone = SearchPlaces(q, *map_, options);
     const PlaceSearch spread = SearchPlaces(q, *map_, options, &pool);
     EXPECT_EQ(spread.locations, alone.locations);
