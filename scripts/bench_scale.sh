@@ -7,8 +7,10 @@
 #   training time (all, and all but feature extraction, per location), peak RSS, map file,
 #   the server's memory with the map, its load time, its peak memory while a new generation
 #   of the map is loaded beside it, one client's request p50/p99 (JPEG and feature set), and
-#   on the real queries (GP day_right 000-099) +-2, LOCALISED precision and the LOCALISED
-#   share of frames from off the route (generated frames of another seed, never in a map).
+#   on the real queries (GP day_right 000-099) +-2, LOCALISED precision, the same queries in
+#   route order as one robot's session (the sequence filter's cost per frame, +-2) and the
+#   LOCALISED share of frames from off the route (generated frames of another seed, never in
+#   a map).
 # Prints one table with each figure's slope against the map's size (log-log, between the
 # two largest sizes) and its projection to 100,000 locations, and writes OUT/scale.json,
 # OUT/scale.md and OUT/scale.png. A benchmark, not a test: about 75 minutes on 2 cores for
@@ -133,7 +135,7 @@ for n in "${sizes[@]}"; do
   stop_server
 
   "$build/tools/sceneloc-eval" --map "$map" --queries "$data/gardens_point/day_right" \
-    --negatives "$out/offroute/test" --threads "$threads" --json "$result/eval.json" |
+    --negatives "$out/offroute/test" --sequence --threads "$threads" --json "$result/eval.json" |
     grep -E '^sceneloc|^negatives'
   cat >"$result/server.json" <<EOF
 {"rss_one_map_mb": $one_map, "map_memory_mb": $map_mb, "load_ms": $first_load,

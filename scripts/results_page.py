@@ -277,6 +277,8 @@ SCALE_ROWS = (
     ("match_2", "±2 (GP day_right)", "{:.2f}"),
     ("localised_precision", "LOCALISED precision", "{:.3f}"),
     ("offroute_localised", "off-route LOCALISED", "{:.3f}"),
+    ("session_filter_ms", "session filter, ms per frame (p50)", "{:.3f}"),
+    ("session_match_2", "±2 in a session (GP day_right in order)", "{:.2f}"),
 )
 
 

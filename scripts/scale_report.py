@@ -29,7 +29,10 @@ def size_row(out, n):
     jpeg = json.loads((folder / "jpeg.json").read_text())
     features = json.loads((folder / "features.json").read_text())
     ev = json.loads((folder / "eval.json").read_text())
-    conf = ev["confidence"]
+    # With --sequence the report's own figures are the session's; the single frames' sit
+    # under session.single_frame.
+    single = ev["session"]["single_frame"] if "session" in ev else ev
+    conf = single["confidence"]
     neg = ev.get("negatives", {})
     return {
         "locations": n,
@@ -52,10 +55,20 @@ def size_row(out, n):
         "jpeg_p99_ms": jpeg["latency_ms"]["p99"],
         "features_p50_ms": features["latency_ms"]["p50"],
         "features_p99_ms": features["latency_ms"]["p99"],
-        "match_2": ev["match_rate"]["2"],
+        "match_2": single["match_rate"]["2"],
         "localised_precision": conf["accepted_precision"],
         "offroute_localised": neg.get("accepted", 0) / max(1, neg.get("frames", 1)),
+        **session_figures(ev),
     }
+
+
+def session_figures(ev):
+    """The queries in route order as one robot's session (sceneloc-eval --sequence)."""
+    session = ev.get("session")
+    if session is None:
+        return {}
+    return {"session_filter_ms": session["filter_ms_median"],
+            "session_match_2": ev["match_rate"]["2"]}
 
 
 COLUMNS = [
@@ -75,6 +88,8 @@ COLUMNS = [
     ("match_2", "±2 (GP day_right)", "{:.2f}"),
     ("localised_precision", "LOCALISED precision", "{:.3f}"),
     ("offroute_localised", "off-route LOCALISED", "{:.3f}"),
+    ("session_filter_ms", "session filter ms/frame (p50)", "{:.3f}"),
+    ("session_match_2", "±2 in a session", "{:.2f}"),
 ]
 
 
@@ -102,11 +117,13 @@ def main(out, sizes):
              f" | {last:,} / {first:,} | slope | at 100,000 |", "|---" * (len(rows) + 4) + "|"]
     report = {"sizes": rows, "ratios": {}, "slopes": {}, "at_100000": {}, "version": version()}
     for key, label, fmt in COLUMNS:
+        if not all(key in r for r in rows):
+            continue  # a figure an older run of the benchmark did not measure
         cells = [fmt.format(r[key]) for r in rows]
         s = slope(rows, key) if len(rows) > 1 else None
         projected = None
         if s is not None and key not in ("match_2", "localised_precision", "offroute_localised",
-                                         "reload_peak_over_one_map"):
+                                         "reload_peak_over_one_map", "session_match_2"):
             projected = rows[-1][key] * (100000 / rows[-1]["locations"]) ** s
         ratio = rows[-1][key] / rows[0][key] if rows[0][key] > 0 else None
         report["ratios"][key] = ratio
