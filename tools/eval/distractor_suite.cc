@@ -70,12 +70,14 @@ StatusOr<std::vector<std::string>> Padding(const SuiteSet& set, size_t tour_size
 }
 
 // What a padded map is made of, as text: its cache entry holds it, so an entry made from
-// other images or settings is a miss. Paths are canonical: the same data reached through
+// other images or settings, or stored in another map format (made by a trainer that stored
+// other things), is a miss. Paths are canonical: the same data reached through
 // another spelling (a relative --data) finds the same entry.
 std::string MapKey(const SetData& data, const std::vector<std::string>& padding,
                    const TrainOptions& train) {
   std::ostringstream key;
-  key << "sceneloc padded map 1\n" << TrainOptionsToYaml(train);
+  key << "sceneloc padded map 1\nmap format " << kMapFormatVersion << '\n'
+      << TrainOptionsToYaml(train);
   for (const std::string& name : data.tour_names) key << name << '\n';
   for (const std::string& path : padding) {
     std::error_code ec;
