@@ -43,6 +43,13 @@ LocationTemperatures LookAlikeTemperatures(const Map& map, int answer, double te
   return out;
 }
 
+double OwnTemperature(const LocationTemperatures& own, int l) {
+  const auto at = std::lower_bound(own.begin(), own.end(), l, [](const auto& entry, int location) {
+    return entry.first < location;
+  });
+  return at != own.end() && at->first == l ? at->second : 0.0;
+}
+
 double LocationPosterior(const std::vector<float>& location_scores, int answer, int tolerance,
                          double temperature, double plateau, const LocationTemperatures& own) {
   if (location_scores.empty()) return 0;
@@ -50,18 +57,11 @@ double LocationPosterior(const std::vector<float>& location_scores, int answer, 
   if (*low == *high) return 0;  // no evidence tells any location from another
   const float top = *high;
   const double flat = plateau * temperature;
-  std::vector<double> own_temperature;
-  if (!own.empty()) {
-    own_temperature.assign(location_scores.size(), 0.0);
-    for (const auto& [l, t] : own) {
-      if (l >= 0 && static_cast<size_t>(l) < own_temperature.size()) own_temperature[l] = t;
-    }
-  }
   double total = 0, near = 0;
   for (size_t l = 0; l < location_scores.size(); ++l) {
     const int offset = std::abs(static_cast<int>(l) - answer);
     double t = offset <= tolerance + 1 ? flat : temperature;
-    if (!own_temperature.empty() && own_temperature[l] > 0) t = own_temperature[l];
+    if (const double own_t = OwnTemperature(own, static_cast<int>(l)); own_t > 0) t = own_t;
     const double w = std::exp((location_scores[l] - top) / t);  // <= 1: no overflow
     total += w;
     if (offset <= tolerance) near += w;

@@ -61,13 +61,17 @@ inline constexpr double kMaxLookAlikeRatio = 0.95;
 // for a map without look-alikes.
 LocationTemperatures LookAlikeTemperatures(const Map& map, int answer, double temperature);
 
+// The temperature `own` gives location `l`, 0 if it gives none.
+// REQUIRES: `own` ascends by location, one entry each (as LookAlikeTemperatures gives it).
+double OwnTemperature(const LocationTemperatures& own, int l);
+
 // P(within tolerance | in the map): the posterior mass of locations within `tolerance`
 // of `answer`, with location_scores[l] read as log-likelihoods at `temperature`, or at
 // plateau * temperature within tolerance + 1 of `answer` (plateau 1: one temperature), or
 // at the temperature `own` gives a location. 0 when there are no scores or all are equal
 // (nothing tells any location from another).
 // REQUIRES: temperature > 0, plateau >= 1, answer < location_scores.size(), own's
-// temperatures > 0.
+// temperatures > 0 and its locations ascending (OwnTemperature).
 double LocationPosterior(const std::vector<float>& location_scores, int answer, int tolerance,
                          double temperature, double plateau, const LocationTemperatures& own = {});
 

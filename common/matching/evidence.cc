@@ -128,11 +128,7 @@ double CameraAveragedPosterior(const std::vector<float>& location_scores,
     return LocationPosterior(location_scores, answer, tolerance, temperature, plateau, own);
   }
   // Locations read at their own temperature (0: none), summed one by one.
-  std::vector<double> own_temperature(own.empty() ? 0 : n, 0.0);
-  for (const auto& [l, t] : own) {
-    if (l >= 0 && static_cast<size_t>(l) < n) own_temperature[l] = t;
-  }
-  const auto own_t = [&](size_t l) { return own_temperature.empty() ? 0.0 : own_temperature[l]; };
+  const auto own_t = [&](size_t l) { return OwnTemperature(own, static_cast<int>(l)); };
   const auto [low, high] = std::minmax_element(location_scores.begin(), location_scores.end());
   if (*low == *high) return 0;  // as LocationPosterior: nothing tells locations apart
   // Where each location's weight is read: within tolerance of the answer (counted), one
