@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The accuracy suite in one command: every development set in ../shared/data (Gardens Point
 # day, night on both sides of the path, the corridor, and generated variants of the day
-# queries: a smaller camera, dusk, heavy JPEG, blur), each localised by our defaults, by the
+# queries: a smaller camera, dusk, heavy JPEG, blur, ...; and a generated street of look-alike
+# places, rendered into OUT/cache), each localised by our defaults, by the
 # paper as printed, by the FLANN voting baseline and by that baseline re-ranked by RANSAC
 # inliers, all on the same features in one run. About 10-15 minutes on 2 cores the first
 # time (features are cached in OUT/cache for later runs).

@@ -114,12 +114,21 @@ nlohmann::json WalksJson(const sl::SetResult& r) {
             {"frames_to_correct_worst", r.kidnap.worst}}}};
 }
 
+// The command that renders a generated set ("" for a set of real folders).
+std::string GeneratedBy(const sl::SuiteSet& set) {
+  if (!set.generated) return "";
+  const sl::TourOptions& o = *set.generated;
+  return "sceneloc-gentour --locations " + std::to_string(o.num_locations) + " --repeat-blocks " +
+         std::to_string(o.repeat_blocks) + " --seed " + std::to_string(o.seed);
+}
+
 nlohmann::json SetJson(const sl::SetResult& r) {
   nlohmann::json methods;
   for (const Row& row : Rows(r)) methods[row.method] = sl::MethodJson(*row.summary);
   return {{"name", r.set.name},
           {"description", r.set.description},
           {"tour", r.set.tour_dir},
+          {"generated", GeneratedBy(r.set)},
           {"queries_dir", r.set.queries_dir},
           {"change", sl::QueryChangeName(r.set.change)},
           {"locations", r.locations},
@@ -469,7 +478,10 @@ int RunSuite(const Args& a, const sl::SuiteSettings& settings,
   PrintWalks(results);
   std::vector<sl::HeldOutInput> held;
   for (const sl::SetResult& r : results) {
-    held.push_back({r.set.name, r.set.queries_dir, &r.shell, &r.outcomes});
+    // A family: the sets of one query folder (a generated set is a family of its own).
+    const std::string family = r.set.generated ? r.set.name : r.set.queries_dir;
+    held.push_back({r.set.name, family, &r.shell, &r.outcomes,
+                    r.session_outcomes.empty() ? nullptr : &r.session_outcomes});
   }
   const std::vector<sl::HeldOutSummary> left_out = sl::LeaveOneSetOut(
       held, settings.match, {settings.train.tolerance, settings.match.min_confidence});
@@ -501,6 +513,13 @@ int main(int argc, char** argv) {
   if (sl::Status loaded = LoadSettings(a, &settings); !loaded.ok()) return Fail(loaded.message());
   const std::vector<sl::SuiteSet> sets = SelectSets(a);
   if (sets.empty()) return Fail("no set to run: is '" + a.data_dir + "' the data folder?");
+  if (a.only.empty() && std::all_of(sets.begin(), sets.end(), [](const sl::SuiteSet& s) {
+        return s.generated.has_value();
+      })) {
+    return Fail("no data set under '" + a.data_dir +
+                "' (gardens_point/, corridor/); --sets lookalike_street runs the generated set "
+                "alone");
+  }
   std::error_code ec;
   std::filesystem::create_directories(a.out_dir, ec);
   if (a.ablation) return RunAblation(sets, settings, a.variants, a.context, a.out_dir);

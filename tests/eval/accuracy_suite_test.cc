@@ -103,16 +103,22 @@ std::string FullDataFolder(const test::ScratchDir& data) {
 }
 
 // With every folder present: all eleven sets in order, the generated variants over the
-// Gardens Point day queries, and the other data set's folders as negatives.
+// Gardens Point day queries, and the other data set's folders as negatives; then the
+// generated look-alike street, with every real folder as its negatives.
 TEST(AccuracySuiteTest, DevelopmentSuiteOfAFullDataFolder) {
   const test::ScratchDir data("suite");
   const std::string root = FullDataFolder(data);
   const std::vector<SuiteSet> sets = DevelopmentSuite(root);
-  EXPECT_EQ(SetNames(sets),
-            (std::vector<std::string>{"gp_day", "gp_night_same", "gp_night_other", "corridor",
-                                      "gp_day_smaller", "gp_day_darker", "gp_day_jpeg",
-                                      "gp_day_blur", "gp_day_zoom", "gp_day_4_3", "gp_day_roll"}));
-  ASSERT_EQ(sets.size(), 11u);
+  EXPECT_EQ(SetNames(sets), (std::vector<std::string>{
+                                "gp_day", "gp_night_same", "gp_night_other", "corridor",
+                                "gp_day_smaller", "gp_day_darker", "gp_day_jpeg", "gp_day_blur",
+                                "gp_day_zoom", "gp_day_4_3", "gp_day_roll", "lookalike_street"}));
+  ASSERT_EQ(sets.size(), 12u);
+  EXPECT_EQ(sets[11].negative_dirs.size(), 5u);
+  ASSERT_TRUE(sets[11].generated.has_value());
+  EXPECT_GT(sets[11].generated->repeat_blocks, 0);
+  EXPECT_TRUE(sets[11].generated->Validate().ok());
+  for (int i = 0; i < 11; ++i) EXPECT_FALSE(sets[i].generated.has_value()) << sets[i].name;
   EXPECT_EQ(sets[0].tour_dir, root + "/gardens_point/day_left");
   EXPECT_EQ(sets[0].queries_dir, root + "/gardens_point/day_right");
   EXPECT_EQ(sets[0].negative_dirs,
@@ -155,17 +161,26 @@ TEST(AccuracySuiteTest, SwappedSuiteOfAFullDataFolder) {
   }
 }
 
-// Sets whose folders are missing are left out, and so are missing negative folders.
+// Sets whose folders are missing are left out, and so are missing negative folders; the
+// generated set needs no folder.
 TEST(AccuracySuiteTest, DevelopmentSuiteLeavesOutWhatIsMissing) {
   const test::ScratchDir data("suite");
-  EXPECT_TRUE(DevelopmentSuite(data.File("absent")).empty());
+  EXPECT_EQ(SetNames(DevelopmentSuite(data.File("absent"))),
+            (std::vector<std::string>{"lookalike_street"}));
   fs::create_directories(data.path() / "gardens_point/day_left");
   fs::create_directories(data.path() / "gardens_point/day_right");
   const std::vector<SuiteSet> sets = DevelopmentSuite(data.path().string());
   EXPECT_EQ(SetNames(sets),
             (std::vector<std::string>{"gp_day", "gp_day_smaller", "gp_day_darker", "gp_day_jpeg",
-                                      "gp_day_blur", "gp_day_zoom", "gp_day_4_3", "gp_day_roll"}));
-  for (const SuiteSet& s : sets) EXPECT_TRUE(s.negative_dirs.empty()) << s.name;
+                                      "gp_day_blur", "gp_day_zoom", "gp_day_4_3", "gp_day_roll",
+                                      "lookalike_street"}));
+  for (const SuiteSet& s : sets) {
+    if (s.generated) continue;
+    EXPECT_TRUE(s.negative_dirs.empty()) << s.name;
+  }
+  EXPECT_EQ(sets.back().negative_dirs,
+            (std::vector<std::string>{data.path().string() + "/gardens_point/day_left",
+                                      data.path().string() + "/gardens_point/day_right"}));
   EXPECT_EQ(SetNames(SwappedSuite(data.path().string())),
             (std::vector<std::string>{"gp_day_swapped"}));
 }
@@ -237,6 +252,35 @@ TEST_F(SuiteRunTest, LoadSetExtractsWithTruthByName) {
   set_.tour_limit = 2;  // query 2's tour image is not in the map
   const auto missing = LoadSet(set_, extractor_, context_);
   EXPECT_EQ(missing.status().code(), StatusCode::kNotFound);
+}
+
+// A generated set is rendered into the cache once (tour and test pass, truth by file name),
+// read from there again, rendered again when its options change, and needs a cache.
+TEST_F(SuiteRunTest, AGeneratedSetIsRenderedIntoTheCacheOnce) {
+  SuiteSet generated;
+  generated.name = "street";
+  generated.generated = test::SmallTour(kLocations);
+  generated.generated->repeat_blocks = 1;
+  const auto data = LoadSet(generated, extractor_, context_);
+  ASSERT_TRUE(data.ok()) << data.status().ToString();
+  EXPECT_EQ(data->tour.size(), static_cast<size_t>(kLocations));
+  EXPECT_EQ(data->truth, (std::vector<int>{0, 1, 2, 3, 4}));
+  const fs::path first = fs::path(context_.cache_dir) / "generated/street/test" / TourImageName(0);
+  ASSERT_TRUE(fs::is_regular_file(first));
+  const auto written = fs::last_write_time(first);
+  fs::last_write_time(first, written - std::chrono::hours(1));
+  ASSERT_TRUE(LoadSet(generated, extractor_, context_).ok());
+  EXPECT_EQ(fs::last_write_time(first), written - std::chrono::hours(1));  // not rendered again
+
+  generated.generated->repeat_blocks = 0;
+  ASSERT_TRUE(LoadSet(generated, extractor_, context_).ok());
+  EXPECT_NE(fs::last_write_time(first), written - std::chrono::hours(1));  // rendered again
+
+  SuiteContext no_cache = context_;
+  no_cache.cache_dir.clear();
+  EXPECT_EQ(LoadSet(generated, extractor_, no_cache).status().code(), StatusCode::kInvalidArgument);
+  generated.generated->num_locations = 0;
+  EXPECT_EQ(LoadSet(generated, extractor_, context_).status().code(), StatusCode::kInvalidArgument);
 }
 
 // Where LoadSet writes the generated variant of query `i` of `set`.

@@ -67,6 +67,25 @@ TEST_F(LeaveOneOutTest, TheShippedConstantsReadTheAnswersAsGiven) {
   EXPECT_LT(hot_sure, sure);
 }
 
+// The shell keeps what the confidence and a session read besides the calibration: the
+// look-alikes (a map of a repetitive building is read as less sure) and the landmarks'
+// observation counts (the session's motion band).
+TEST(MapShellTest, KeepsTheLookAlikesAndTheObservationCounts) {
+  Map map;
+  map.image_names = {"a.jpg", "b.jpg", "c.jpg"};
+  map.lookalike_offsets = {0, 1, 1, 2};
+  map.lookalike_location = {2, 0};
+  map.lookalike_ratio = {0.9f, 0.9f};
+  map.observation_offsets = {0, 3, 5};
+  const Map shell = MapShell(map);
+  EXPECT_EQ(shell.image_names, map.image_names);
+  EXPECT_EQ(shell.lookalike_offsets, map.lookalike_offsets);
+  EXPECT_EQ(shell.lookalike_location, map.lookalike_location);
+  EXPECT_EQ(shell.lookalike_ratio, map.lookalike_ratio);
+  EXPECT_EQ(shell.observation_offsets, map.observation_offsets);
+  EXPECT_TRUE(shell.has_lookalikes());
+}
+
 // From a start far too hot, on answers nearly all right, the fit cools the posterior.
 TEST_F(LeaveOneOutTest, TheFitImprovesOnAPoorStart) {
   const HeldOutInput set{"generated", "generated", shell_, outcomes_};
@@ -80,9 +99,14 @@ TEST_F(LeaveOneOutTest, TheFitImprovesOnAPoorStart) {
 // Each set is held out with its family: two sets of one family leave nothing to fit on and
 // keep the shipped constants; a set of another family is fitted on the first two.
 TEST_F(LeaveOneOutTest, SetsAreHeldOutWithTheirFamily) {
+  // Set c's session: every answer one location further on at confidence 0.97 (right within
+  // the tolerance but not exact); set a has none.
+  std::vector<MethodOutcome> session;
+  for (const QueryOutcome& o : *outcomes_) session.push_back({o.truth + 1, 0.97f});
+  session.back() = {(*outcomes_).back().truth - 9, 0.995f};  // one gross error at >= 0.99
   const std::vector<HeldOutInput> sets = {{"a", "day", shell_, outcomes_},
                                           {"b", "day", shell_, outcomes_},
-                                          {"c", "night", shell_, outcomes_}};
+                                          {"c", "night", shell_, outcomes_, &session}};
   const std::vector<HeldOutSummary> held = LeaveOneSetOut(sets, MatchOptions(), Judging());
   ASSERT_EQ(held.size(), 3u);
   const ConfidenceConstants shipped = ConstantsOf(shell_->options);
@@ -96,8 +120,17 @@ TEST_F(LeaveOneOutTest, SetsAreHeldOutWithTheirFamily) {
   EXPECT_EQ(held[0].summary.confidence.queries, kLocations);
   EXPECT_EQ(held[0].shipped.match_rate[2], held[0].summary.match_rate[2]);
   EXPECT_EQ(held[0].confidence.size(), static_cast<size_t>(kLocations));
+  EXPECT_FALSE(held[0].has_session);
+  ASSERT_TRUE(held[2].has_session);
+  EXPECT_EQ(held[2].session_accepted_95, kLocations);
+  EXPECT_EQ(held[2].session_right_95, kLocations - 1);
+  EXPECT_EQ(held[2].session_gross_99, 1);
+  EXPECT_DOUBLE_EQ(held[2].session.match_rate[0], 0.0);
+  EXPECT_DOUBLE_EQ(held[2].session.match_rate[1], (kLocations - 1.0) / kLocations);
   const nlohmann::json json = LeaveOneOutJson(held, 0.8);
   EXPECT_EQ(json["sets"].size(), 3u);
+  EXPECT_FALSE(json["sets"][0].contains("session"));
+  EXPECT_EQ(json["sets"][2]["session"]["gross_99"], 1);
   EXPECT_EQ(PooledHeldOut(held, 0.8).queries, 3 * kLocations);
 }
 

@@ -308,6 +308,12 @@ TEST_F(CliTest, AccuracyRefusesAnUnknownSet) {
                  "' --out '" + out.string() + "' --sets swapped" + settings),
       {"no set to run"});
   EXPECT_FALSE(fs::exists(out));
+  // Without the data folder only the generated set would run: said, not run.
+  ExpectOneLineError(
+      RunCommand(std::string(SCENELOC_ACCURACY_BIN) + " --data '" + (dir_ / "absent").string() +
+                 "' --out '" + out.string() + "'" + settings),
+      {"no data set under", "absent", "--sets lookalike_street"});
+  EXPECT_FALSE(fs::exists(out));
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 
 #include "common/features/extractor.h"
 #include "common/image/image_codec.h"
+#include "common/synthetic/tour_generator.h"
 #include "common/training/trainer.h"
 #include "common/util/file_io.h"
 #include "common/util/image_folder.h"
@@ -136,6 +137,46 @@ StatusOr<std::vector<std::string>> ChangedQueries(const SuiteSet& set,
   return out;
 }
 
+// What a generated set was rendered with. Bump kGeneratedVersion when the tour generator
+// changes what it draws for the same options.
+constexpr int kGeneratedVersion = 1;
+std::string GeneratedStamp(const TourOptions& o) {
+  std::string stamp = "sceneloc generated " + std::to_string(kGeneratedVersion);
+  for (const double v :
+       {double(o.num_locations), double(o.image_width), double(o.image_height), double(o.seed),
+        o.step, o.lateral_shift, o.forward_offset, o.rotation_deg, o.brightness_gain,
+        o.brightness_offset, o.noise_stddev, double(o.jpeg_quality), double(o.repeat_blocks)}) {
+    stamp += " " + std::to_string(v);
+  }
+  return stamp + "\n";
+}
+
+// The tour and query folders of `set`: its own, or for a generated set the cache's copy of
+// its rendering (made first when missing or of other options).
+struct Folders {
+  std::string tour, queries;
+};
+StatusOr<Folders> FoldersOf(const SuiteSet& set, const SuiteContext& context) {
+  if (!set.generated) return Folders{set.tour_dir, set.queries_dir};
+  if (context.cache_dir.empty()) return InvalidArgument("generated sets need a cache folder");
+  const TourOptions& options = *set.generated;
+  SCENELOC_RETURN_IF_ERROR(options.Validate());
+  const std::string stamp = GeneratedStamp(options);
+  const fs::path dir = fs::path(context.cache_dir) / "generated" / set.name;
+  const Folders folders{(dir / "tour").string(), (dir / "test").string()};
+  const fs::path stamp_path = dir / "stamp";
+  if (ReadsAs(stamp_path, stamp)) return folders;
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) return IoError("cannot create '" + dir.string() + "': " + ec.message());
+  for (const auto& [folder, pass] :
+       {std::pair{folders.tour, kTrainingPass}, std::pair{folders.queries, kTestPass}}) {
+    SCENELOC_RETURN_IF_ERROR(WriteTour(options, folder, pass, context.threads));
+  }
+  SCENELOC_RETURN_IF_ERROR(WriteStamp(stamp_path, stamp));
+  return folders;
+}
+
 std::vector<std::string> Names(const std::vector<std::string>& paths) {
   std::vector<std::string> names;
   for (const std::string& p : paths) names.push_back(FileName(p));
@@ -172,7 +213,9 @@ namespace {
 std::vector<SuiteSet> Present(std::vector<SuiteSet> all) {
   std::vector<SuiteSet> present;
   for (SuiteSet s : all) {
-    if (!fs::is_directory(s.tour_dir) || !fs::is_directory(s.queries_dir)) continue;
+    if (!s.generated && (!fs::is_directory(s.tour_dir) || !fs::is_directory(s.queries_dir))) {
+      continue;
+    }
     s.negative_dirs.erase(std::remove_if(s.negative_dirs.begin(), s.negative_dirs.end(),
                                          [](const std::string& d) { return !fs::is_directory(d); }),
                           s.negative_dirs.end());
@@ -198,9 +241,9 @@ std::vector<SuiteSet> DevelopmentSuite(const std::string& data_dir) {
   const auto [not_gp, not_corridor] = NegativesOf(gp, corridor);
   std::vector<SuiteSet> all = {
       {"gp_day", "Gardens Point day: day_left (200) -> day_right", gp + "/day_left", 0,
-       gp + "/day_right", 0, QueryChange::kNone, not_gp},
+       gp + "/day_right", 0, QueryChange::kNone, not_gp, std::nullopt},
       {"gp_night_same", "Gardens Point night, same side: day_right 000-099 -> night_right",
-       gp + "/day_right", 100, gp + "/night_right", 0, QueryChange::kNone, not_gp},
+       gp + "/day_right", 100, gp + "/night_right", 0, QueryChange::kNone, not_gp, std::nullopt},
       {"gp_night_other",
        "Gardens Point night, other side: day_left (200) -> night_right",
        gp + "/day_left",
@@ -208,9 +251,10 @@ std::vector<SuiteSet> DevelopmentSuite(const std::string& data_dir) {
        gp + "/night_right",
        0,
        QueryChange::kNone,
-       {}},
+       {},
+       std::nullopt},
       {"corridor", "corridor fish-eye 160x120: ref (111) -> query", corridor + "/ref", 0,
-       corridor + "/query", 0, QueryChange::kNone, not_corridor},
+       corridor + "/query", 0, QueryChange::kNone, not_corridor, std::nullopt},
       {"gp_day_smaller",
        "generated: GP day queries from a camera of 1/3 the resolution",
        gp + "/day_left",
@@ -218,7 +262,8 @@ std::vector<SuiteSet> DevelopmentSuite(const std::string& data_dir) {
        gp + "/day_right",
        0,
        QueryChange::kSmaller,
-       {}},
+       {},
+       std::nullopt},
       {"gp_day_darker",
        "generated: GP day queries at dusk (gamma 2.2, 35% light, noise)",
        gp + "/day_left",
@@ -226,7 +271,8 @@ std::vector<SuiteSet> DevelopmentSuite(const std::string& data_dir) {
        gp + "/day_right",
        0,
        QueryChange::kDarker,
-       {}},
+       {},
+       std::nullopt},
       {"gp_day_jpeg",
        "generated: GP day queries as JPEG quality 8",
        gp + "/day_left",
@@ -234,7 +280,8 @@ std::vector<SuiteSet> DevelopmentSuite(const std::string& data_dir) {
        gp + "/day_right",
        0,
        QueryChange::kJpeg,
-       {}},
+       {},
+       std::nullopt},
       {"gp_day_blur",
        "generated: GP day queries blurred (sigma 3 px at 960 wide)",
        gp + "/day_left",
@@ -242,7 +289,8 @@ std::vector<SuiteSet> DevelopmentSuite(const std::string& data_dir) {
        gp + "/day_right",
        0,
        QueryChange::kBlur,
-       {}},
+       {},
+       std::nullopt},
       {"gp_day_zoom",
        "generated: GP day queries through a narrower lens (the centre 80%)",
        gp + "/day_left",
@@ -250,7 +298,8 @@ std::vector<SuiteSet> DevelopmentSuite(const std::string& data_dir) {
        gp + "/day_right",
        0,
        QueryChange::kZoom,
-       {}},
+       {},
+       std::nullopt},
       {"gp_day_4_3",
        "generated: GP day queries from a 4:3 sensor of the same height",
        gp + "/day_left",
@@ -258,7 +307,8 @@ std::vector<SuiteSet> DevelopmentSuite(const std::string& data_dir) {
        gp + "/day_right",
        0,
        QueryChange::kSensor43,
-       {}},
+       {},
+       std::nullopt},
       {"gp_day_roll",
        "generated: GP day queries from a camera rolled 5 degrees",
        gp + "/day_left",
@@ -266,9 +316,26 @@ std::vector<SuiteSet> DevelopmentSuite(const std::string& data_dir) {
        gp + "/day_right",
        0,
        QueryChange::kRoll,
-       {}},
+       {},
+       std::nullopt},
   };
+  SuiteSet street;
+  street.name = "lookalike_street";
+  street.description =
+      "generated: a street whose places repeat every 40 locations (120), walked again displaced "
+      "and darker";
+  street.negative_dirs = not_gp;
+  street.negative_dirs.insert(street.negative_dirs.end(), not_corridor.begin(), not_corridor.end());
+  street.generated = LookAlikeStreet();
+  all.push_back(std::move(street));
   return Present(std::move(all));
+}
+
+TourOptions LookAlikeStreet() {
+  TourOptions street;
+  street.num_locations = 120;
+  street.repeat_blocks = 3;
+  return street;
 }
 
 std::vector<SuiteSet> SwappedSuite(const std::string& data_dir) {
@@ -276,11 +343,12 @@ std::vector<SuiteSet> SwappedSuite(const std::string& data_dir) {
   const auto [not_gp, not_corridor] = NegativesOf(gp, corridor);
   return Present({
       {"gp_day_swapped", "Gardens Point day, swapped: day_right (100) -> day_left 000-099",
-       gp + "/day_right", 0, gp + "/day_left", 100, QueryChange::kNone, not_gp},
+       gp + "/day_right", 0, gp + "/day_left", 100, QueryChange::kNone, not_gp, std::nullopt},
       {"gp_night_swapped", "Gardens Point, a night map: night_right (100) -> day_right",
-       gp + "/night_right", 0, gp + "/day_right", 0, QueryChange::kNone, not_gp},
+       gp + "/night_right", 0, gp + "/day_right", 0, QueryChange::kNone, not_gp, std::nullopt},
       {"corridor_swapped", "corridor, swapped: query (55) -> ref 0000000-0000054",
-       corridor + "/query", 0, corridor + "/ref", 55, QueryChange::kNone, not_corridor},
+       corridor + "/query", 0, corridor + "/ref", 55, QueryChange::kNone, not_corridor,
+       std::nullopt},
   });
 }
 
@@ -288,10 +356,13 @@ StatusOr<SetData> LoadSet(const SuiteSet& set, const ExtractorOptions& extractor
                           const SuiteContext& context) {
   SetData d;
   d.extractor = extractor;
+  SCENELOC_ASSIGN_OR_RETURN(const Folders folders, FoldersOf(set, context));
   SCENELOC_ASSIGN_OR_RETURN(const std::vector<std::string> tour_paths,
-                            FirstImages(set.tour_dir, set.tour_limit));
+                            FirstImages(folders.tour, set.tour_limit));
   SCENELOC_ASSIGN_OR_RETURN(std::vector<std::string> query_paths,
-                            FirstImages(set.queries_dir, set.query_limit));
+                            FirstImages(folders.queries, set.query_limit));
+  d.tour_dir = folders.tour;
+  d.queries_dir = folders.queries;
   d.tour_names = Names(tour_paths);
   d.query_names = Names(query_paths);
   if (set.change != QueryChange::kNone) {
@@ -367,6 +438,8 @@ StatusOr<SetResult> RunSet(const SuiteSet& set, const SuiteSettings& settings,
   SetResult result;
   result.set = set;
   SCENELOC_ASSIGN_OR_RETURN(const SetData data, LoadSet(set, settings.train.extractor, context));
+  result.set.tour_dir = data.tour_dir;  // a generated set's: where it was rendered
+  result.set.queries_dir = data.queries_dir;
   SCENELOC_ASSIGN_OR_RETURN(VariantResult ours,
                             RunVariant(data, settings.train, settings.match, context));
   // The paper's map from the same tour features: its extractor settings are ours.

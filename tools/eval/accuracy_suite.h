@@ -9,12 +9,14 @@
 // camera, a darker scene, heavy JPEG compression, blur), written as JPEG files once.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "common/map/map.h"
 #include "common/map/train_options.h"
 #include "common/matching/localiser.h"
+#include "common/synthetic/tour_generator.h"
 #include "common/util/status.h"
 #include "tools/eval/evaluation.h"
 #include "tools/eval/sequence_eval.h"
@@ -37,13 +39,24 @@ struct SuiteSet {
   QueryChange change = QueryChange::kNone;
   // Folders of frames from elsewhere (another route): every one should come back UNKNOWN.
   std::vector<std::string> negative_dirs;
+  // A generated set: tour_dir and queries_dir are empty, and LoadSet renders the tour
+  // (kTrainingPass) and the queries (kTestPass) of these options into the cache first.
+  std::optional<TourOptions> generated;
 };
 
 // The development sets under `data_dir` (../shared/data): Gardens Point day, night on the
 // same and on the other side of the path, the corridor, and seven generated variants of the
 // Gardens Point day queries (four of the image, three of the camera). Sets whose folders are
-// missing are left out.
+// missing are left out. Then, whatever `data_dir` holds, a generated street of look-alike
+// places ("lookalike_street": LookAlikeStreet()), with the real frames as its negatives.
 std::vector<SuiteSet> DevelopmentSuite(const std::string& data_dir);
+
+// The look-alike street: 120 locations whose facades and pillars repeat every 3 blocks (40
+// locations), so the route passes its first places' twins twice more, each twin told apart
+// only by a small sign per facade tile; the queries walk it again displaced and darker.
+// A corridor of identical doors, or a route that comes back past its start: the map's own
+// places look alike, and the confidence has to know it.
+TourOptions LookAlikeStreet();
 
 // The real sets with tour and queries swapped: a map from `day_right` (100) queried with
 // `day_left` 000-099, a map from the night walk queried with the day walk, a map from the
@@ -120,8 +133,12 @@ EvalSummary PooledSummary(const std::vector<SetResult>& results, bool unchanged_
                           const Judging& judging);
 
 // A set's features, extracted (or read from the cache) with one extractor's settings.
+// A generated set's images are rendered into context.cache_dir/generated/<name> once
+// (a stamp beside them names the options; bump kGeneratedVersion in accuracy_suite.cc when
+// the generator changes what it draws).
 struct SetData {
-  ExtractorOptions extractor;  // what they were extracted with
+  ExtractorOptions extractor;         // what they were extracted with
+  std::string tour_dir, queries_dir;  // where the images are (a generated set's: the cache)
   std::vector<FeatureSet> tour, queries;
   std::vector<std::string> tour_names, query_names;
   std::vector<int> truth;

@@ -152,6 +152,8 @@ StatusOr<SetResult> RunSetWithDistractors(const SuiteSet& set, const SuiteSettin
   result.set = set;
   result.comparisons = false;
   SCENELOC_ASSIGN_OR_RETURN(const SetData data, LoadSet(set, settings.train.extractor, context));
+  result.set.tour_dir = data.tour_dir;  // a generated set's: where it was rendered
+  result.set.queries_dir = data.queries_dir;
   SCENELOC_ASSIGN_OR_RETURN(const Map map, PaddedMap(set, data, settings.train, context,
                                                      distractors, &result.train_seconds));
   result.locations = map.num_images();

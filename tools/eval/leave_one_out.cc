@@ -71,6 +71,12 @@ Map MapShell(const Map& map) {
   shell.image_width = map.image_width;
   shell.image_height = map.image_height;
   shell.image_names = map.image_names;
+  // The confidence reads an answer's look-alikes; a session's motion band, the landmarks'
+  // observation counts.
+  shell.lookalike_offsets = map.lookalike_offsets;
+  shell.lookalike_location = map.lookalike_location;
+  shell.lookalike_ratio = map.lookalike_ratio;
+  shell.observation_offsets = map.observation_offsets;
   return shell;
 }
 
@@ -153,6 +159,15 @@ std::vector<HeldOutSummary> LeaveOneSetOut(const std::vector<HeldOutInput>& sets
     CountAbove(*held.outcomes, read, 0.99, judging.tolerance, nullptr, nullptr, &summary.gross_99);
     CountAbove(*held.outcomes, OursOf(*held.outcomes), 0.99, judging.tolerance, nullptr, nullptr,
                &summary.shipped_gross_99);
+    if (held.session != nullptr) {
+      summary.has_session = true;
+      summary.session = SummariseMethod(WithOurs(*held.outcomes, *held.session), Method::kOurs,
+                                        {judging.tolerance, match.sequence.min_confidence});
+      CountAbove(*held.outcomes, *held.session, 0.95, judging.tolerance,
+                 &summary.session_accepted_95, &summary.session_right_95, nullptr);
+      CountAbove(*held.outcomes, *held.session, 0.99, judging.tolerance, nullptr, nullptr,
+                 &summary.session_gross_99);
+    }
     out.push_back(std::move(summary));
   }
   return out;
@@ -180,6 +195,23 @@ void PrintLeaveOneOut(const std::vector<HeldOutSummary>& held, double threshold)
       "pooled, held out: ECE %.3f (floor %.3f); precision: of the answers at >= %.2f, "
       "the share right [with the shipped constants]\n",
       pooled.ece, pooled.ece_floor, threshold);
+  if (std::none_of(held.begin(), held.end(), [](const HeldOutSummary& h) { return h.has_session; }))
+    return;
+  std::printf(
+      "\nsessions (the file order as one robot; the filter reads none of the fitted "
+      "constants, so as run)\n");
+  std::printf("%-16s %-15s %-15s %-15s %-9s\n", "set", "ECE (floor)", "precision", ">=0.95 right",
+              ">=0.99 off>5");
+  for (const HeldOutSummary& h : held) {
+    if (!h.has_session) continue;
+    const ConfidenceMetrics& c = h.session.confidence;
+    char ece[48], precision[48], right[48];
+    std::snprintf(ece, sizeof(ece), "%.3f (%.3f)", c.ece, c.ece_floor);
+    std::snprintf(precision, sizeof(precision), "%.3f", c.accepted_precision);
+    std::snprintf(right, sizeof(right), "%d/%d", h.session_right_95, h.session_accepted_95);
+    std::printf("%-16s %-15s %-15s %-15s %d\n", h.name.c_str(), ece, precision, right,
+                h.session_gross_99);
+  }
 }
 
 ConfidenceMetrics PooledHeldOut(const std::vector<HeldOutSummary>& held, double threshold) {
@@ -206,6 +238,12 @@ nlohmann::json LeaveOneOutJson(const std::vector<HeldOutSummary>& held, double t
                    {"right_95", h.right_95},
                    {"gross_99", h.gross_99},
                    {"shipped_gross_99", h.shipped_gross_99}});
+    if (h.has_session) {
+      out.back()["session"] = {{"summary", MethodJson(h.session)},
+                               {"accepted_95", h.session_accepted_95},
+                               {"right_95", h.session_right_95},
+                               {"gross_99", h.session_gross_99}};
+    }
   }
   return {{"sets", out}, {"pooled", ConfidenceJson(PooledHeldOut(held, threshold))}};
 }

@@ -35,10 +35,14 @@ struct HeldOutInput {
   std::string family;  // sets of one family share query frames (their query folder)
   const Map* shell = nullptr;
   const std::vector<QueryOutcome>* outcomes = nullptr;
+  // The set's answers as one robot's session (SetResult::session_outcomes), or null. The
+  // session's filter reads none of the fitted constants (only the single frames' scores and
+  // in-map probabilities), so they are reported as run.
+  const std::vector<MethodOutcome>* session = nullptr;
 };
 
-// What of `map` the confidence reads: its options, calibration, frame and image names, no
-// landmarks.
+// What of `map` the confidence and a session read: its options, calibration, frame, image
+// names, look-alikes and the landmarks' observation counts; no landmarks.
 Map MapShell(const Map& map);
 
 // `outcomes`' answers read again with `constants` in place of the map's (the camera each
@@ -65,6 +69,12 @@ struct HeldOutSummary {
   // Per query, read with `fitted`: its confidence and whether it is right.
   std::vector<float> confidence;
   std::vector<bool> correct;
+  // The session's answers (HeldOutInput::session), judged at the session's min_confidence.
+  bool has_session = false;
+  MethodSummary session;
+  int session_accepted_95 = 0;
+  int session_right_95 = 0;
+  int session_gross_99 = 0;
   static constexpr int kGrossFrames = 5;
 };
 
@@ -77,7 +87,8 @@ ConfidenceMetrics PooledHeldOut(const std::vector<HeldOutSummary>& held, double 
 
 // One table (stdout) and its JSON: per set, the constants fitted without its family, ECE
 // beside its floor, the share of accepted answers right at `threshold` and at 0.95, the
-// answers at 0.99 or more over kGrossFrames off, each beside the shipped constants' figure.
+// answers at 0.99 or more over kGrossFrames off, each beside the shipped constants' figure;
+// then the same of the sessions, where there are.
 void PrintLeaveOneOut(const std::vector<HeldOutSummary>& held, double threshold);
 // {"sets": [per set], "pooled": ConfidenceJson of PooledHeldOut}
 nlohmann::json LeaveOneOutJson(const std::vector<HeldOutSummary>& held, double threshold);
