@@ -67,6 +67,17 @@ void StoreLookAlikes(const std::vector<LookAlike>& lookalikes, float min_excess,
     of[t].emplace_back(static_cast<uint32_t>(a.rival), ratio);
     of[static_cast<size_t>(a.rival)].emplace_back(static_cast<uint32_t>(t), ratio);
   }
+  // Each frame names only its best rival, so of three twins a place may be linked to one:
+  // the look-alikes of a look-alike count too, at the product of the two ratios.
+  const std::vector<std::vector<std::pair<uint32_t, float>>> direct = of;
+  for (size_t t = 0; t < n; ++t) {
+    for (const auto& [b, first] : direct[t]) {
+      for (const auto& [c, second] : direct[b]) {
+        if (std::abs(static_cast<int>(c) - static_cast<int>(t)) <= kHeldOutFrames) continue;
+        of[t].emplace_back(c, first * second);
+      }
+    }
+  }
   map->lookalike_offsets.assign(1, 0);
   map->lookalike_location.clear();
   map->lookalike_ratio.clear();

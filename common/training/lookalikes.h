@@ -57,7 +57,9 @@ StatusOr<std::vector<LookAlike>> MeasureLookAlikes(
 // Look-alikes stored in `map` (Map::lookalike_*, replacing any): a frame whose rival verifies
 // with at least `min_excess` weighted inliers above chance makes the two places each other's
 // look-alike, at the ratio of the rival's excess to the frame's own stretch's (at most 1);
-// each place keeps its kMaxLookAlikes strongest.
+// so are the look-alikes of a place's look-alikes beyond kHeldOutFrames of it (of three
+// twins each frame names one), at the product of the two ratios; each place keeps its
+// kMaxLookAlikes strongest.
 inline constexpr int kMaxLookAlikes = 8;
 void StoreLookAlikes(const std::vector<LookAlike>& lookalikes, float min_excess, Map* map);
 

@@ -100,6 +100,33 @@ TEST(LookAlikesTest, StoredBothWaysAboveTheThreshold) {
   EXPECT_EQ(zero.back().first, static_cast<uint32_t>(11 + kMaxLookAlikes));
 }
 
+// Three twins, each frame naming one rival: every twin is linked to both others, a
+// look-alike's look-alike at the product of the ratios; one within kHeldOutFrames is not.
+TEST(LookAlikesTest, ALookAlikesLookAlikeCounts) {
+  Map map;
+  map.image_names.resize(100);
+  std::vector<LookAlike> a(100);
+  a[0] = {40, 20.0f, 20.0f};   // ratio 1
+  a[40] = {80, 18.0f, 20.0f};  // ratio 0.9
+  a[10] = {50, 10.0f, 20.0f};  // ratio 0.5; 50's other look-alike, 15, is near 10
+  a[15] = {50, 10.0f, 20.0f};
+  StoreLookAlikes(a, kLookAlikeInliers, &map);
+  const auto list = [&](int l) {
+    std::vector<std::pair<uint32_t, float>> out;
+    for (uint32_t k = map.lookalike_offsets[l]; k < map.lookalike_offsets[l + 1]; ++k) {
+      out.emplace_back(map.lookalike_location[k], map.lookalike_ratio[k]);
+    }
+    return out;
+  };
+  using List = std::vector<std::pair<uint32_t, float>>;
+  EXPECT_EQ(list(0), (List{{40, 1.0f}, {80, 0.9f}}));
+  EXPECT_EQ(list(40), (List{{0, 1.0f}, {80, 0.9f}}));
+  EXPECT_EQ(list(80), (List{{0, 0.9f}, {40, 0.9f}}));
+  EXPECT_EQ(list(10), (List{{50, 0.5f}}));
+  EXPECT_EQ(list(15), (List{{50, 0.5f}}));
+  EXPECT_EQ(list(50), (List{{10, 0.5f}, {15, 0.5f}}));
+}
+
 // Grouping: frames whose rivals advance with them (either way) make one stretch; a rival
 // elsewhere starts another; the strongest stretch comes first.
 TEST(LookAlikesTest, StretchesFollowTheRivals) {
