@@ -47,7 +47,8 @@ struct Workspace {
   double floor_each = 0;
   double off_map = 0;
   bool fresh = false;
-  std::vector<float> scores;  // the frame's evidence read with the session's camera
+  std::vector<float> scores;   // the frame's evidence read with the session's camera
+  std::vector<float> blended;  // the scores with look-alikes blended (BlendLookAlikes)
   std::vector<double> log_lik;
   // EvidenceWeights: each location's weight, then off-map's.
   std::vector<double> weight;
@@ -112,7 +113,10 @@ SequenceFilter::SequenceFilter(const Map& map, const SequenceOptions& options)
     : num_locations_(map.num_images()),
       tolerance_(map.options.tolerance),
       temperature_(options.evidence_temperature),
-      options_(options) {
+      options_(options),
+      lookalike_offsets_(map.lookalike_offsets),
+      lookalike_location_(map.lookalike_location),
+      lookalike_ratio_(map.lookalike_ratio) {
   const int band = MotionBand(map);
   forward_ = options.max_forward >= 0 ? options.max_forward : 2 * band;
   backward_ = options.max_backward >= 0 ? options.max_backward : 2 * band;
@@ -297,9 +301,27 @@ void SequenceFilter::Spread(const std::vector<double>& posterior,
   }
 }
 
-void SequenceFilter::EvidenceWeights(const std::vector<float>& s, double in_map) const {
+const std::vector<float>& SequenceFilter::BlendLookAlikes(const std::vector<float>& s) const {
+  if (lookalike_offsets_.empty()) return s;
+  std::vector<float>& blended = ThreadWorkspace().blended;
+  blended = s;
+  const int n = num_locations_;
+  for (int l = 0; l < n; ++l) {
+    const uint32_t begin = lookalike_offsets_[l], end = lookalike_offsets_[l + 1];
+    const float share = 1.0f / static_cast<float>(1 + end - begin);
+    for (uint32_t k = begin; k < end; ++k) {
+      const float rho = std::min(lookalike_ratio_[k], static_cast<float>(kMaxLookAlikeRatio));
+      blended[l] += rho * share * (s[lookalike_location_[k]] - s[l]);
+    }
+  }
+  return blended;
+}
+
+void SequenceFilter::EvidenceWeights(const std::vector<float>& frame_scores, double in_map) const {
   Workspace& work = ThreadWorkspace();
   const int n = num_locations_;
+  const bool sized = frame_scores.size() == static_cast<size_t>(n);
+  const std::vector<float>& s = sized ? BlendLookAlikes(frame_scores) : frame_scores;
   const bool has_scores =
       s.size() == static_cast<size_t>(n) &&
       *std::max_element(s.begin(), s.end()) != *std::min_element(s.begin(), s.end());

@@ -208,6 +208,14 @@ class SequenceFilter {
   void Observe(const std::vector<float>& scores, double in_map, SequenceState* state) const;
   // Per location, the weight of the frame's evidence (the thread's workspace), off-map last.
   void EvidenceWeights(const std::vector<float>& scores, double in_map) const;
+  // The frame's scores with each location's blended with its look-alikes' (Map::lookalike_*):
+  // l's score moves towards each look-alike b's by rho_lb / (1 + l's look-alikes), rho at
+  // most kMaxLookAlikeRatio, so that of a pair (or of twins that all know each other) only
+  // (1 - rho) of the difference stays, as the single frame's confidence reads an answer's
+  // look-alikes (LookAlikeTemperatures), and scores elsewhere keep their mean. Chance
+  // differences between twins, frame after frame, then do not lock a session on to the
+  // wrong one. `scores` itself for a map without look-alikes.
+  const std::vector<float>& BlendLookAlikes(const std::vector<float>& scores) const;
   // A location's speeds after the speed changes (SequenceOptions::speed_change, speed_jump),
   // from its speeds `row` (num_speeds() values).
   void ChangeSpeed(const float* row, double* out) const;
@@ -234,6 +242,10 @@ class SequenceFilter {
   int tracked_ = 0;
   // evidence_spread^d for d = 0..the map's band; empty when evidence_spread is 0.
   std::vector<double> spread_;
+  // The map's look-alikes (Map::lookalike_*; empty without them).
+  std::vector<uint32_t> lookalike_offsets_;
+  std::vector<uint32_t> lookalike_location_;
+  std::vector<float> lookalike_ratio_;
   // Per speed, where one frame takes the robot: whole locations and their weights (sum 1).
   struct Step {
     int locations;
