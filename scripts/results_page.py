@@ -63,9 +63,33 @@ def git(*args):
                           check=False).stdout.strip()
 
 
+# An answer a robot acts on (LOCALISED) and how far from the truth is still right: the
+# shipped matching settings' min_confidence and the tolerance the suite judges with.
+THRESHOLD, TOLERANCE = 0.8, 2
+
+
+def confident_misses(s):
+    """The set's single-frame answers at >= THRESHOLD more than TOLERANCE frames off where a
+    voting baseline (with or without RANSAC) was right: what the page explains one by one."""
+    out = []
+    for q in s.get("per_query", []):
+        ours, truth = q["sceneloc"], q["truth"]
+        right = [m for m in ("baseline", "baseline+ransac")
+                 if m in q and abs(q[m][0] - truth) <= TOLERANCE]
+        if ours[1] >= THRESHOLD and abs(ours[0] - truth) > TOLERANCE and right:
+            out.append({"query": q["query"], "truth": truth, "sceneloc": ours,
+                        "baseline": q.get("baseline"),
+                        "baseline+ransac": q.get("baseline+ransac"),
+                        "session": q.get("session")})
+    return out
+
+
 def trim_accuracy(run):
-    """accuracy.json without its per-query answers (megabytes; the summaries stay)."""
+    """accuracy.json without its per-query answers (megabytes; the summaries stay, and the
+    confident misses where a baseline was right)."""
     for s in run.get("sets", []):
+        if "per_query" in s and any("baseline" in q for q in s["per_query"]):
+            s["confident_misses"] = confident_misses(s)
         s.pop("per_query", None)
         for m in s.get("methods", {}).values():
             m.get("confidence", {}).pop("reliability_bins", None)
@@ -185,6 +209,77 @@ def accuracy_section(run):
         out += table(["sets", "method", "queries", "±2", "ECE", "ECE floor", "PR-AUC",
                       "LOCALISED precision"], rows)
     out += leave_one_out_section(run.get("leave_one_out"))
+    out += misses_section(run)
+    return out
+
+
+# Why each confident miss where a baseline was right happened, from looking at the frames
+# (scripts/show_misses.py OUT SET): keyed by (set, query). A miss the run finds that has no
+# note here is listed as not yet looked at.
+TRUTH_LAGS = ("truth offset: the query shows what tour frames {at} show, and the baselines "
+              "answer there too: here the same file name is not the same place")
+LENS = ("a narrower lens sees from here what the tour's lens sees {ahead} frames on: the "
+        "single frame cannot tell the two apart without the camera; the session, which "
+        "learns the camera, answers {session}")
+COURTYARDS = ("another courtyard of the same design (pale paving, planting before a glazed "
+              "facade) around tour {at}; the tour's own frames there do not verify against "
+              "each other, so the map does not list the two as look-alikes")
+MISS_NOTES = {
+    ("gp_day", "Image031.jpg"): TRUTH_LAGS.format(at="32-34 (the door frame that fills tour "
+                                                     "31's left edge is nearly gone)"),
+    ("gp_day", "Image098.jpg"): COURTYARDS.format(at="132-134"),
+    ("gp_night_same", "Image036.jpg"): "truth offset: the night frame shows what tour frames "
+                                       "37-39 show (the bins at the right edge); RANSAC "
+                                       "answers 38, the session 37",
+    ("gp_night_same", "Image093.jpg"): "night: a dim walkway whose railing and planting match "
+                                       "a planting bed at tour 82-84 better than the green "
+                                       "wall of 93; the session answers 94",
+    ("corridor", "0000013.jpg"): "repeated doors: the same green door at tour 10 and 13, "
+                                 "three frames apart (too near for the map's look-alikes, "
+                                 "which start beyond 10 frames)",
+    ("corridor", "0000014.jpg"): "repeated doors, as for 0000013",
+    ("corridor", "0000046.jpg"): "the window on the right stands about where tour 48-49 show "
+                                 "it: the query walk may run ahead of its file names here "
+                                 "(RANSAC answers 47, the session 48)",
+    ("gp_day_jpeg", "Image096.jpg"): COURTYARDS.format(at="131-133"),
+    ("gp_day_zoom", "Image031.jpg"): TRUTH_LAGS.format(at="32-34 (as in gp_day)"),
+    ("gp_day_zoom", "Image035.jpg"): LENS.format(ahead="3-4", session="36"),
+    ("gp_day_zoom", "Image056.jpg"): LENS.format(ahead="3", session="56"),
+    ("gp_day_zoom", "Image089.jpg"): LENS.format(ahead="2-3", session="90"),
+    ("gp_day_zoom", "Image096.jpg"): LENS.format(ahead="2-3", session="97"),
+    ("gp_day_4_3", "Image012.jpg"): TRUTH_LAGS.format(at="13-15 (the white wall close on the "
+                                                         "left of tour 12-13 is behind the "
+                                                         "camera)"),
+    ("gp_day_roll", "Image097.jpg"): "the rolled, cropped view keeps the courtyard and loses "
+                                     "the straight railing at the left edge that tells 97 "
+                                     "from the curved one of 99-100; the session answers 97",
+    ("gp_day_roll", "Image012.jpg"): TRUTH_LAGS.format(at="13-15 (as in gp_day_4_3)"),
+}
+
+
+def misses_section(run):
+    sets = [s for s in run["sets"] if "confident_misses" in s]
+    if not sets:
+        return []
+    total = sum(len(s["confident_misses"]) for s in sets)
+    out = ["", "### Confidently wrong where a baseline was right", "",
+           f"Single frames LOCALISED (confidence ≥ {THRESHOLD:g}) more than ±{TOLERANCE} "
+           "frames from the truth while the FLANN votes or the votes re-ranked by RANSAC were "
+           f"within it: {total} of "
+           f"{sum(s['queries'] for s in sets)} queries. Each looked at beside the tour frames "
+           "around its truth and around its answer (`scripts/show_misses.py OUT SET`).", ""]
+    rows = []
+    for s in sets:
+        for m in s["confident_misses"]:
+            votes, ransac = m.get("baseline"), m.get("baseline+ransac")
+            rows.append([s["name"], m["query"], m["truth"],
+                         f"{m['sceneloc'][0]} at {m['sceneloc'][1]:.2f}",
+                         f"{m['sceneloc'][0] - m['truth']:+d}",
+                         " / ".join(str(x[0]) if x else "–" for x in (votes, ransac)),
+                         str(m["session"][0]) if m.get("session") else "–",
+                         MISS_NOTES.get((s["name"], m["query"]), "not yet looked at")])
+    out += table(["set", "query", "truth", "sceneloc", "off", "votes / RANSAC", "session",
+                  "why"], rows)
     return out
 
 
@@ -195,7 +290,8 @@ def leave_one_out_section(loo):
            "Each set's single-frame answers read again with the confidence's three fitted "
            "constants (the posterior's temperature T, the in-map logistic's slope and offset) "
            "fitted without every set that shares its query frames (GP day and its variants; "
-           "both night sets; the corridor): the confidence as a building nobody tuned on sees "
+           "both night sets; the corridor; the look-alike street): the confidence as a building "
+           "nobody tuned on sees "
            "it. Each figure held out, [shipped constants] beside it.", ""]
     rows = []
     for h in loo["sets"]:
@@ -213,6 +309,64 @@ def leave_one_out_section(loo):
     p = loo["pooled"]
     out += ["", f"Pooled over every held-out answer: ECE {p['ece']:.3f} against its floor "
                 f"{p['ece_floor']:.3f}; precision at 0.8 {p['accepted_precision']:.3f}."]
+    out += loo_targets(loo)
+    out += loo_sessions(loo)
+    return out
+
+
+def mark(ok):
+    return "yes" if ok else "**no**"
+
+
+def loo_targets(loo):
+    """The confidence's targets for a building nobody tuned on, each set held out: nothing at
+    >= 0.99 more than 5 frames off; >= 98% of the answers at >= 0.95 right; the share of right
+    answers accepted at 0.8 no more than 0.05 below the shipped constants' (today's); the
+    pooled ECE within 0.01 of its floor."""
+    out = ["", "#### Targets, each set held out", "",
+           "Met or not per set, today's figure beside each: no answer at ≥ 0.99 more than 5 "
+           "frames off; at ≥ 0.95, at least 98% of the answers right (a set with fewer than 50 "
+           "such answers cannot show 98%: one miss is 2% or more, so its count is what to "
+           "read); the share of right answers accepted at 0.8 at most 0.05 below the shipped "
+           "constants'.", ""]
+    rows = []
+    for h in loo["sets"]:
+        held, ship = h["held_out"]["confidence"], h["shipped"]["confidence"]
+        share = h["right_95"] / h["accepted_95"] if h["accepted_95"] else None
+        rows.append([h["set"], f"{h['gross_99']} ({mark(h['gross_99'] == 0)})",
+                     f"{h['right_95']} / {h['accepted_95']}"
+                     + (f" = {share:.3f} ({mark(share >= 0.98)})" if share is not None else ""),
+                     f"{held['correct_accepted']:.2f} vs {ship['correct_accepted']:.2f} "
+                     f"({mark(held['correct_accepted'] >= ship['correct_accepted'] - 0.05)})"])
+    out += table(["set", "> 5 frames off at ≥ 0.99", "right at ≥ 0.95",
+                  "right answers accepted at 0.8, held out vs shipped"], rows)
+    p = loo["pooled"]
+    out += ["", f"Pooled ECE {p['ece']:.3f} against its floor {p['ece_floor']:.3f}: "
+                f"{mark(p['ece'] <= p['ece_floor'] + 0.01)} (within 0.01 of the floor)."]
+    return out
+
+
+def loo_sessions(loo):
+    sets = [h for h in loo["sets"] if "session" in h]
+    if not sets:
+        return []
+    out = ["", "#### Sessions: the same measures", "",
+           "Each set's queries in file order as one robot's session; its answers judged at the "
+           "session's own threshold. The session's filter reads no constant the "
+           "leave-one-set-out fit changes (only the single frames' scores and in-map "
+           "probabilities), so these are as run.", ""]
+    rows = []
+    for h in sets:
+        x = h["session"]
+        c = x["summary"]["confidence"]
+        share = x["right_95"] / x["accepted_95"] if x["accepted_95"] else None
+        rows.append([h["set"], f"{c['ece']:.3f} ({c['ece_floor']:.3f})",
+                     f"{c['accepted_precision']:.3f}", f"{c['accepted']:.2f}",
+                     f"{x['right_95']} / {x['accepted_95']}"
+                     + (f" = {share:.3f}" if share is not None else ""),
+                     f"{x['gross_99']} ({mark(x['gross_99'] == 0)})"])
+    out += table(["set", "ECE (floor)", "LOCALISED precision", "share LOCALISED",
+                  "right at ≥ 0.95", "> 5 frames off at ≥ 0.99"], rows)
     return out
 
 
@@ -503,6 +657,7 @@ SET_NAMES = {
     "gp_day_zoom": "GP day through a narrower lens",
     "gp_day_4_3": "GP day from a 4:3 sensor",
     "gp_day_roll": "GP day from a camera rolled 5°",
+    "lookalike_street": "generated street of look-alike places",
 }
 
 
@@ -510,15 +665,22 @@ def readme_accuracy(run):
     rows = []
     for s in run["sets"]:
         session = s.get("sessions", {}).get("walks", {}).get("in_order", {}).get("rate")
-        rows.append([SET_NAMES.get(s["name"], s["name"]),
-                     f"**{f2(rate(method(s, 'sceneloc'), 2))}**"] +
-                    [f2(rate(method(s, m), 2)) for m, _ in METHODS[1:]] + [f2(session)])
+        rates = [rate(method(s, m), 2) for m, _ in METHODS]
+        best = max((r for r in rates if r is not None), default=None)
+        rows.append([SET_NAMES.get(s["name"], s["name"])] +
+                    [f"**{f2(r)}**" if r is not None and f2(r) == f2(best) else f2(r)
+                     for r in rates] + [f2(session)])
     out = table(["set", "sceneloc", "the paper as printed", "FLANN votes",
                  "votes re-ranked by RANSAC", "sceneloc as a session"], rows)
     precision = [method(s, "sceneloc")["confidence"]["accepted_precision"] for s in run["sets"]]
     day = next((method(s, "sceneloc")["confidence"]["accepted_precision"]
                 for s in run["sets"] if s["name"] == "gp_day"), None)
     threshold = method(run["sets"][0], "sceneloc")["confidence"]["threshold"]
+    if any(s["name"] == "lookalike_street" for s in run["sets"]):
+        out += ["", "The best single-frame figure of each set in bold. On the generated street "
+                    "whose places repeat exactly, a single frame cannot tell a place from its "
+                    "twins and says so (few of its answers reach `LOCALISED`); a session, which "
+                    "follows the robot along the route, can."]
     out += ["", f"Of the answers a robot would act on (`LOCALISED`, confidence ≥ {threshold:g}), "
                 f"{min(precision):.2f}–"
                 f"{max(precision):.2f} are right per set"
