@@ -89,6 +89,39 @@ std::string Localise(const std::string& jpeg) {
   return r.SerializeAsString();
 }
 
+namespace {
+
+// `value` as a protobuf varint.
+std::string Varint(uint64_t value) {
+  std::string out;
+  while (value >= 0x80) {
+    out.push_back(static_cast<char>((value & 0x7f) | 0x80));
+    value >>= 7;
+  }
+  out.push_back(static_cast<char>(value));
+  return out;
+}
+
+// Field `field` of wire type 2 (length-delimited) holding `bytes`.
+std::string Delimited(int field, const std::string& bytes) {
+  return Varint(static_cast<uint64_t>(field) << 3 | 2) + Varint(bytes.size()) + bytes;
+}
+
+}  // namespace
+
+std::string EmptyKeypoints(int keypoints, int width, int height) {
+  v1::FeatureSet f;
+  f.set_image_width(width);
+  f.set_image_height(height);
+  std::string features = f.SerializeAsString();
+  features.reserve(features.size() + 2 * static_cast<size_t>(keypoints));
+  for (int i = 0; i < keypoints; ++i) features += Delimited(3, "");  // FeatureSet.keypoints
+  v1::LocaliseRequest localise;
+  localise.set_map("gp");
+  // LocaliseRequest.features (4) inside Request.localise (2).
+  return Delimited(2, localise.SerializeAsString() + Delimited(4, features));
+}
+
 std::string Encode(const cv::Mat& image, bool progressive) {
   std::vector<uint8_t> out;
   cv::imencode(".jpg", image, out,

@@ -170,6 +170,10 @@ std::map<std::string, int> FireFromThreads(const std::string& endpoint,
 // A serialised localise request of `jpeg` against the map "gp".
 std::string Localise(const std::string& jpeg);
 
+// A serialised localise request of a feature set holding `keypoints` empty keypoints (two
+// bytes each on the wire, a message each once parsed) and nothing else, against "gp".
+std::string EmptyKeypoints(int keypoints, int width, int height);
+
 // `image` as a JPEG of quality 80, baseline or progressive.
 std::string Encode(const cv::Mat& image, bool progressive);
 

@@ -19,7 +19,7 @@ train_gp_map "$data"
 query="$(ls "$data/day_right" | head -n 1)"
 status=0
 "$build/bench/hostile_server" --server-bin "$build/server/sceneloc-server" \
-  --map "$out/maps/gp.scnl" --query "$data/day_right/$query" --threads "$threads" |
+  --map "$out/maps/gp.scnl" --query "$data/day_right/$query" --threads "$threads" --large-floods |
   tee "$out/hostile.txt" || status=$?
 # The table above in one file, for the results page (scripts/results_page.py record hostile).
 /usr/bin/python3 - "$out" "$("$client" --version)" <<'PY'
