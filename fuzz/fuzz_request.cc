@@ -8,6 +8,7 @@
 // that decodes to the same keypoints and values; a JPEG whose header reads has a size
 // within what it claims.
 #include <cstdlib>
+#include <string>
 
 #include "proto/sceneloc.pb.h"
 #include "proto/wire.h"
@@ -42,8 +43,18 @@ void CheckJpeg(const std::string& jpeg) {
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace sceneloc;
+  // The count before parsing reads any bytes; of a request as serialised it is exactly what
+  // the parse finds.
+  if (CountWireKeypoints(data, size) < 0) std::abort();
   v1::Request request;
   if (!request.ParseFromArray(data, static_cast<int>(size))) return 0;
+  if (request.kind_case() == v1::Request::kLocalise && request.localise().has_features()) {
+    const std::string canonical = request.SerializeAsString();
+    if (CountWireKeypoints(canonical.data(), canonical.size()) !=
+        request.localise().features().keypoints_size()) {
+      std::abort();
+    }
+  }
   switch (request.kind_case()) {
     case v1::Request::kLocalise:
       if (request.localise().has_features()) CheckFeatures(request.localise().features());

@@ -1,7 +1,11 @@
 #include "proto/wire.h"
 
+#include <google/protobuf/io/coded_stream.h>
+#include <google/protobuf/wire_format_lite.h>
+
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 
 namespace sceneloc {
@@ -122,12 +126,57 @@ void EncodeFeatureSet(const FeatureSet& features, DescriptorEncoding encoding,
   }
 }
 
+Status TooManyKeypoints(int64_t keypoints, int max_keypoints) {
+  return ResourceExhausted("feature set has " + std::to_string(keypoints) + " keypoints; at most " +
+                           std::to_string(max_keypoints) + " are accepted");
+}
+
+namespace {
+
+using google::protobuf::internal::WireFormatLite;
+
+// Inside the message `in` is positioned in (up to its limit): the length-delimited field
+// `field`, whose body `in` is then limited to (the limit to pop returned); false when there
+// is none or the bytes are malformed.
+bool EnterField(google::protobuf::io::CodedInputStream* in, int field,
+                google::protobuf::io::CodedInputStream::Limit* outer) {
+  while (const uint32_t tag = in->ReadTag()) {
+    if (WireFormatLite::GetTagFieldNumber(tag) == field &&
+        WireFormatLite::GetTagWireType(tag) == WireFormatLite::WIRETYPE_LENGTH_DELIMITED) {
+      uint32_t length = 0;
+      if (!in->ReadVarint32(&length)) return false;
+      *outer = in->PushLimit(static_cast<int>(length));
+      return true;
+    }
+    if (!WireFormatLite::SkipField(in, tag)) return false;
+  }
+  return false;
+}
+
+}  // namespace
+
+int64_t CountWireKeypoints(const void* data, size_t size) {
+  if (size > static_cast<size_t>(std::numeric_limits<int>::max())) return 0;
+  google::protobuf::io::CodedInputStream in(static_cast<const uint8_t*>(data),
+                                            static_cast<int>(size));
+  google::protobuf::io::CodedInputStream::Limit limit;
+  // Request.localise (2), then LocaliseRequest.features (4). A field sent twice is merged
+  // by the parser; the count here stops at the first, so the parse's check still applies.
+  if (!EnterField(&in, 2, &limit) || !EnterField(&in, 4, &limit)) return 0;
+  int64_t keypoints = 0;
+  while (const uint32_t tag = in.ReadTag()) {
+    if (WireFormatLite::GetTagFieldNumber(tag) == 3 &&
+        WireFormatLite::GetTagWireType(tag) == WireFormatLite::WIRETYPE_LENGTH_DELIMITED) {
+      ++keypoints;  // FeatureSet.keypoints
+    }
+    if (!WireFormatLite::SkipField(&in, tag)) break;
+  }
+  return keypoints;
+}
+
 StatusOr<FeatureSet> DecodeFeatureSet(const v1::FeatureSet& wire, const FeatureSetLimits& limits) {
   const int n = wire.keypoints_size();
-  if (n > limits.max_keypoints) {
-    return ResourceExhausted("feature set has " + std::to_string(n) + " keypoints; at most " +
-                             std::to_string(limits.max_keypoints) + " are accepted");
-  }
+  if (n > limits.max_keypoints) return TooManyKeypoints(n, limits.max_keypoints);
   if (wire.image_width() <= 0 || wire.image_height() <= 0) {
     return InvalidArgument("feature set image size must be positive");
   }

@@ -5,6 +5,9 @@
 // Thread-safe: free functions without shared state.
 #pragma once
 
+#include <cstddef>
+#include <cstdint>
+
 #include "common/features/feature_set.h"
 #include "common/util/status.h"
 #include "proto/sceneloc.pb.h"
@@ -34,6 +37,18 @@ void EncodeFeatureSet(const FeatureSet& features, DescriptorEncoding encoding, v
 // non-finite number, a bad image size; ResourceExhausted for more keypoints or a larger
 // image than `limits` allow. uint8 rows are L2-normalised; float32 rows are used as sent.
 StatusOr<FeatureSet> DecodeFeatureSet(const v1::FeatureSet& wire, const FeatureSetLimits& limits);
+
+// The keypoints of a serialised Request's feature set (Request.localise.features.
+// keypoints), counted from the wire format without parsing it: a request of millions of
+// empty keypoints is a few bytes each to send and a message each to parse, so the server
+// counts them (one pass over the bytes, nothing allocated) before it parses. Counts up to the
+// end of the feature set or the first malformed byte (the parse then says what is wrong);
+// 0 for a request without a feature set. Sizes over 2 GiB, which no request reaches, give 0.
+int64_t CountWireKeypoints(const void* data, size_t size);
+
+// The error DecodeFeatureSet gives a feature set of `keypoints` keypoints, more than
+// `max_keypoints`.
+Status TooManyKeypoints(int64_t keypoints, int max_keypoints);
 
 // The wire status for an engine status code (kOk -> OK).
 v1::StatusCode ToWireCode(StatusCode code);

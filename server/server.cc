@@ -4,6 +4,8 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+
 #include "server/zmq_server.h"
 
 namespace sceneloc {
@@ -23,7 +25,9 @@ ZmqServer::ZmqServer(const ServerOptions& options, MapRegistry* registry, Thread
                                               : std::make_unique<ThreadPool>(options.threads)),
       engine_pool_(engine_pool != nullptr ? engine_pool : own_engine_pool_.get()),
       handler_(options, registry, engine_pool_, &stats_),
-      queue_(static_cast<size_t>(options.queue_capacity)),
+      // Requests parsed on a worker (larger than kInlineParseBytes) hold all workers but
+      // one at most: small requests always have a worker (with one worker, no lane).
+      queue_(static_cast<size_t>(options.queue_capacity), std::max(1, options.threads - 1)),
       // Worker mode: a DEALER connected to the broker's DEALER backend receives what the
       // broker's ROUTER frontend read, [client identity][empty][request], exactly what
       // our own ROUTER would; replies go back the same way. Nothing else changes.

@@ -12,19 +12,21 @@ double ZmqServer::ServiceMs() const {
   return ms > 0 ? ms : 100.0;
 }
 
-double ZmqServer::QueuedWorkMs() const {
-  return static_cast<double>(queue_.size()) * service_ms_.load(std::memory_order_relaxed) /
-         options_.threads;
+double ZmqServer::QueuedWorkMs(bool large) const {
+  const size_t ahead = large ? queue_.size() : queue_.size_of(false);
+  const int workers =
+      large ? options_.threads : std::max(1, options_.threads - queue_.large_held());
+  return static_cast<double>(ahead) * service_ms_.load(std::memory_order_relaxed) / workers;
 }
 
-Refusal ZmqServer::WaitRefusal() const {
+Refusal ZmqServer::WaitRefusal(bool large) const {
   // The requests waiting ahead of this one; those already running are not counted (an
   // idle server admits anything, however slow).
-  const double wait_ms = QueuedWorkMs();
+  const double wait_ms = QueuedWorkMs(large);
   const int limit = options_.limits.max_queue_wait_ms;
   if (wait_ms <= limit) return {};
   return {"about " + std::to_string(static_cast<int>(wait_ms)) + " ms of work (" +
-              std::to_string(queue_.size()) + " requests of ~" +
+              std::to_string(large ? queue_.size() : queue_.size_of(false)) + " requests of ~" +
               std::to_string(static_cast<int>(ServiceMs())) +
               " ms) is queued ahead of this request; limits.max_queue_wait_ms is " +
               std::to_string(limit),
@@ -36,7 +38,7 @@ std::string ZmqServer::ConnectionKey(const zmq::message_t& identity) {
 }
 
 Refusal ZmqServer::AdmissionRefusal(const std::string& connection, const std::string& client,
-                                    size_t bytes) const {
+                                    size_t bytes, bool large) const {
   const auto it = in_flight_.find(connection);
   const int mine = it == in_flight_.end() ? 0 : it->second.count;
   if (mine >= options_.limits.max_in_flight_per_client) {
@@ -56,7 +58,7 @@ Refusal ZmqServer::AdmissionRefusal(const std::string& connection, const std::st
     }
   }
   const int64_t held = queued_bytes_;
-  if (held + static_cast<int64_t>(bytes) > options_.limits.max_queued_bytes) {
+  if (large && held + static_cast<int64_t>(bytes) > options_.limits.max_queued_bytes) {
     return {"requests queued or running hold " + std::to_string(held) + " bytes; this one (" +
                 std::to_string(bytes) + " bytes) would pass limits.max_queued_bytes (" +
                 std::to_string(options_.limits.max_queued_bytes) + ")",

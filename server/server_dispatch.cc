@@ -96,11 +96,12 @@ void ZmqServer::Dispatch(std::unique_ptr<Job> job) {
   }
   const std::string connection = ConnectionKey(job->identity);
   const size_t bytes = job->bytes;
-  Refusal refusal = AdmissionRefusal(connection, job->client, bytes);
-  if (refusal.why.empty()) refusal = WaitRefusal();
+  const bool large = !job->parsed;  // parsed on a worker: more than kInlineParseBytes
+  Refusal refusal = AdmissionRefusal(connection, job->client, bytes, large);
+  if (refusal.why.empty()) refusal = WaitRefusal(large);
   if (refusal.why.empty()) {
     const std::string client = job->client;
-    if (queue_.TryPush(job)) {
+    if (queue_.TryPush(job, large)) {
       ++outstanding_;
       Track(connection, client);
       queued_bytes_ += static_cast<int64_t>(bytes);
@@ -108,7 +109,7 @@ void ZmqServer::Dispatch(std::unique_ptr<Job> job) {
     }
     refusal = {std::to_string(options_.queue_capacity) +
                    " requests are already waiting (server.queue_capacity)",
-               QueuedWorkMs()};
+               QueuedWorkMs(large)};
   }
   const uint64_t id = job->parsed ? job->request.request_id() : PeekRequestId(job->raw);
   const v1::Reply reply = OverloadedReply(id, refusal);

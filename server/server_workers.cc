@@ -2,6 +2,7 @@
 // and passes the reply to the I/O thread through its own PUSH socket.
 #include <spdlog/spdlog.h>
 
+#include "proto/wire.h"
 #include "server/zmq_server.h"
 
 namespace sceneloc {
@@ -21,13 +22,29 @@ class BusyWorker {
   std::atomic<int>* const count_;
 };
 
+// Gives a job's lane back to its queue (BoundedQueue::Done) however its work ends.
+template <typename Queue>
+class LaneRelease {
+ public:
+  LaneRelease(Queue* queue, bool large) : queue_(queue), large_(large) {}
+  ~LaneRelease() { queue_->Done(large_); }
+  LaneRelease(const LaneRelease&) = delete;
+  LaneRelease& operator=(const LaneRelease&) = delete;
+
+ private:
+  Queue* const queue_;
+  const bool large_;
+};
+
 }  // namespace
 
 void ZmqServer::WorkerLoop() {
   zmq::socket_t push(context_, zmq::socket_type::push);
   push.set(zmq::sockopt::linger, -1);
   push.connect(kRepliesEndpoint);
-  while (std::optional<std::unique_ptr<Job>> job = queue_.Pop()) {
+  bool large = false;
+  while (std::optional<std::unique_ptr<Job>> job = queue_.Pop(&large)) {
+    const LaneRelease release(&queue_, large);
     Job& j = **job;
     // Handle() turns every exception into an error reply; this catches what is left
     // (the stats or the reply itself out of memory), so no worker ever ends the process.
@@ -82,14 +99,25 @@ bool ZmqServer::IsStale(const Job& j, Clock::time_point now, v1::Reply* reply) c
       id, {"this request waited " + std::to_string(static_cast<int>(waited_ms)) +
                " ms for a worker, more than twice limits.max_queue_wait_ms (" +
                std::to_string(options_.limits.max_queue_wait_ms) + "); it was not worked on",
-           QueuedWorkMs() - options_.limits.max_queue_wait_ms + ServiceMs()});
+           QueuedWorkMs(!j.parsed) - options_.limits.max_queue_wait_ms + ServiceMs()});
   return true;
 }
 
-bool ZmqServer::ParseOnWorker(Job& j, bool worker_mode, v1::Reply* reply) {
+bool ZmqServer::ParseOnWorker(Job& j, bool worker_mode, v1::Reply* reply) const {
   if (j.parsed) return true;
-  const bool ok = j.request.ParseFromArray(j.raw.data(), static_cast<int>(j.raw.size()));
   const uint64_t peeked_id = PeekRequestId(j.raw);
+  // Too many keypoints is refused before the parse, which would allocate a message for
+  // each: millions of empty ones fit in a request and would hold a worker for seconds.
+  if (const int64_t keypoints = CountWireKeypoints(j.raw.data(), j.raw.size());
+      keypoints > options_.limits.max_keypoints) {
+    j.raw.rebuild();
+    j.parsed = true;
+    *reply = ErrorReply(peeked_id, v1::RESOURCE_EXHAUSTED,
+                        TooManyKeypoints(keypoints, options_.limits.max_keypoints).message() +
+                            " (limits.max_keypoints; counted before parsing)");
+    return false;
+  }
+  const bool ok = j.request.ParseFromArray(j.raw.data(), static_cast<int>(j.raw.size()));
   const size_t size = j.raw.size();
   j.raw.rebuild();  // the parsed request holds what is needed
   j.parsed = true;

@@ -155,19 +155,24 @@ class ZmqServer final : public Server {
   // The recent mean time a request holds a worker, ms; 100 before the first one. Any
   // thread.
   double ServiceMs() const;
-  // The work waiting for a worker, estimated in ms of the pool's time. Any thread.
-  double QueuedWorkMs() const;
+  // The work waiting for a worker ahead of a new request, estimated in ms of the pool's
+  // time: for a large one (parsed on a worker) everything queued over every worker; for a
+  // small one only the small requests queued, over the workers not holding a large one (it
+  // is taken ahead of large ones). Any thread.
+  double QueuedWorkMs(bool large = true) const;
   // Admits when the work queued ahead of a new request is estimated to take no longer than
   // limits.max_queue_wait_ms; else the estimate and the limit, and as the retry hint the
   // time for the queue to drain below the limit.
-  Refusal WaitRefusal() const;
+  Refusal WaitRefusal(bool large) const;
   static std::string ConnectionKey(const zmq::message_t& identity);
   // Admits a request of `bytes` from `connection` (with auth on, made with the key named
   // `client`) unless it would pass a per-connection, per-key or byte limit; else which,
-  // with the figures. Each limit is freed by a running request finishing: the retry hint.
+  // with the figures. The byte limit binds large requests only: small ones hold at most
+  // kInlineParseBytes each (queue_capacity of them), and a flood of large ones must not
+  // refuse them. Each limit is freed by a running request finishing: the retry hint.
   // I/O thread.
-  Refusal AdmissionRefusal(const std::string& connection, const std::string& client,
-                           size_t bytes) const;
+  Refusal AdmissionRefusal(const std::string& connection, const std::string& client, size_t bytes,
+                           bool large) const;
   // Counts an admitted request against its connection and key until Released(). I/O
   // thread.
   void Track(const std::string& connection, const std::string& client);
@@ -186,8 +191,10 @@ class ZmqServer final : public Server {
   // worked on: true, with `reply` set to OVERLOADED.
   bool IsStale(const Job& j, Clock::time_point now, v1::Reply* reply) const;
   // Parses a request the I/O thread left unparsed (a large one). False, with `reply` filled,
-  // when it is not a valid localise request; true when it is (or was parsed already).
-  static bool ParseOnWorker(Job& j, bool worker_mode, v1::Reply* reply);
+  // when it is not a valid localise request or its feature set has more than
+  // limits.max_keypoints keypoints (counted before the parse); true when it is valid (or
+  // was parsed already).
+  bool ParseOnWorker(Job& j, bool worker_mode, v1::Reply* reply) const;
 
   // --- shutdown (server_shutdown.cc) ---
 

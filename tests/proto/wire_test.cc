@@ -49,6 +49,41 @@ TEST(WireTest, RoundTripsBothEncodings) {
   EXPECT_NEAR(quantised->context.row(7).norm(), 1.0f, 1e-5f);
 }
 
+// The keypoints of a serialised request counted from its bytes: as many as the parse
+// finds, whatever comes before or after the feature set; 0 without one; at most as many
+// as are there when the bytes are cut short or are not a request.
+TEST(WireTest, CountsTheKeypointsOfARequestWithoutParsingIt) {
+  v1::Request request;
+  request.set_request_id(5);
+  request.set_protocol(kProtocolVersion);
+  request.mutable_localise()->set_map("m");
+  request.mutable_localise()->set_session("s");
+  EncodeFeatureSet(RandomFeatures(37, 2), DescriptorEncoding::kUint8,
+                   request.mutable_localise()->mutable_features());
+  std::string bytes = request.SerializeAsString();
+  EXPECT_EQ(CountWireKeypoints(bytes.data(), bytes.size()), 37);
+  for (const size_t cut : {size_t{0}, size_t{3}, bytes.size() / 2, bytes.size() - 1}) {
+    const int64_t n = CountWireKeypoints(bytes.data(), cut);
+    EXPECT_GE(n, 0) << cut;
+    EXPECT_LE(n, 37) << cut;
+  }
+  for (int i = 0; i < 100'000; ++i) request.mutable_localise()->mutable_features()->add_keypoints();
+  bytes = request.SerializeAsString();
+  EXPECT_EQ(CountWireKeypoints(bytes.data(), bytes.size()), 100'037);
+
+  v1::Request jpeg;
+  jpeg.mutable_localise()->set_jpeg(std::string(1000, '\x1a'));
+  bytes = jpeg.SerializeAsString();
+  EXPECT_EQ(CountWireKeypoints(bytes.data(), bytes.size()), 0);
+  v1::Request list;
+  list.mutable_list_maps();
+  bytes = list.SerializeAsString();
+  EXPECT_EQ(CountWireKeypoints(bytes.data(), bytes.size()), 0);
+  const std::string junk(4096, '\xff');
+  EXPECT_EQ(CountWireKeypoints(junk.data(), junk.size()), 0);
+  EXPECT_EQ(TooManyKeypoints(9000, 8192).code(), StatusCode::kResourceExhausted);
+}
+
 // Wrong lengths, both encodings, unnormalised or non-finite values, bad sizes and too
 // many keypoints are each refused with their code.
 TEST(WireTest, RefusesMalformedSets) {

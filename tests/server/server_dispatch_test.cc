@@ -174,5 +174,33 @@ TEST(ServerDispatchTest, RefusalsBeforeParsingKeepTheRequestId) {
       << reply.error();
 }
 
+// A feature set of more keypoints than limits.max_keypoints, in a request large enough to
+// be parsed on a worker, is refused from a count of its bytes (the parse would allocate a
+// message for each of its 200,000 empty keypoints), keeping its request id; the server
+// answers the next request as before.
+TEST(ServerDispatchTest, TooManyKeypointsAreRefusedBeforeTheParse) {
+  test::TestServer server = test::StartTestServer(test::TestServerOptions());
+  ASSERT_NE(server.server, nullptr);
+  v1::Request request;
+  request.set_request_id(77);
+  request.mutable_localise()->set_map("synthetic");
+  v1::FeatureSet* features = request.mutable_localise()->mutable_features();
+  features->set_image_width(320);
+  features->set_image_height(180);
+  for (int i = 0; i < 200'000; ++i) features->add_keypoints();
+  const std::string bytes = request.SerializeAsString();
+  ASSERT_GT(bytes.size(), 64u << 10);  // parsed on a worker, not the I/O thread
+  const v1::Reply reply = RawCall(server.endpoint, {"", bytes});
+  EXPECT_EQ(reply.status(), v1::RESOURCE_EXHAUSTED) << reply.error();
+  EXPECT_EQ(reply.request_id(), 77u);
+  EXPECT_NE(reply.error().find("200000 keypoints; at most 8192"), std::string::npos)
+      << reply.error();
+  EXPECT_NE(reply.error().find("counted before parsing"), std::string::npos) << reply.error();
+  v1::Request list;
+  list.set_request_id(78);
+  list.mutable_list_maps();
+  EXPECT_EQ(RawCall(server.endpoint, {"", list.SerializeAsString()}).status(), v1::OK);
+}
+
 }  // namespace
 }  // namespace sceneloc
