@@ -24,6 +24,7 @@
 #include "common/config/config.h"
 #include "common/features/extractor.h"
 #include "common/keys/keys.h"
+#include "common/matching/localiser.h"
 #include "common/util/version.h"
 
 namespace {
@@ -281,12 +282,11 @@ CLI::App* AddLocalise(CLI::App* app, CommandLine* c) {
       ->check(CLI::Validator(
           [](std::string& text) {
             double x = 0;
-            if (!CLI::detail::lexical_cast(text, x) || !std::isfinite(x) || x < 0.25 || x > 4) {
-              return std::string("must be a number in [0.25, 4]");
-            }
-            return std::string();
+            const bool ok =
+                CLI::detail::lexical_cast(text, x) && sceneloc::CheckCameraScale(x).ok();
+            return ok ? std::string() : "must be a number in " + sceneloc::CameraScaleRange();
           },
-          "in [0.25, 4]"));
+          "in " + sceneloc::CameraScaleRange()));
   localise->add_option("--session", c->localise_options.session,
                        "send the inputs in order as one session (e.g. the robot's name); each "
                        "answer adds the session's filtered one");

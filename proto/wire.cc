@@ -74,8 +74,8 @@ Status DecodeHolistic(const v1::Holistic& wire, FeatureSet* out) {
   if (wire.cols() == 0 && wire.rows() == 0 && wire.bins() == 0 && wire.values_size() == 0) {
     return Status::Ok();
   }
-  if (wire.cols() < 1 || wire.cols() > 64 || wire.rows() < 1 || wire.rows() > 256 ||
-      wire.bins() < 1 || wire.bins() > 36) {
+  if (wire.cols() < 1 || wire.cols() > kMaxHolisticCols || wire.rows() < 1 ||
+      wire.rows() > kMaxHolisticRows || wire.bins() < 1 || wire.bins() > kMaxHolisticBins) {
     return InvalidArgument("holistic grid " + std::to_string(wire.cols()) + "x" +
                            std::to_string(wire.rows()) + "x" + std::to_string(wire.bins()) +
                            " is out of range");

@@ -139,7 +139,7 @@ void MapLoader::Stop() {
 }
 
 std::string MapLoader::PathOf(const std::string& map) const {
-  return (fs::path(options_.maps_dir) / (map + kMapFileExtension)).string();
+  return MapFilePath(options_.maps_dir, map);
 }
 
 // --- loader thread ---

@@ -100,13 +100,8 @@ Status CheckLocaliseFields(const v1::LocaliseRequest& request, int max_top_k) {
     return InvalidArgument("min_confidence must be in [0, 1], got " +
                            std::to_string(request.min_confidence()));
   }
-  if (request.has_camera_scale() &&
-      !(request.camera_scale() >= kMinCameraScale && request.camera_scale() <= kMaxCameraScale)) {
-    return InvalidArgument(
-        "camera_scale must be in [0.25, 4] (the robot camera's focal length over image width, "
-        "against the tour camera's), got " +
-        std::to_string(request.camera_scale()));
-  }
+  if (request.has_camera_scale())
+    SCENELOC_RETURN_IF_ERROR(CheckCameraScale(request.camera_scale()));
   if (!request.session().empty()) SCENELOC_RETURN_IF_ERROR(CheckSessionName(request.session()));
   if (request.session().empty() && (request.reset_session() || !request.session_state().empty())) {
     return InvalidArgument(
@@ -383,9 +378,8 @@ void RequestHandler::FillReloadReply(uint64_t request_id,
 Status RequestHandler::HandleReload(const v1::ReloadMapRequest& request,
                                     v1::ReloadMapReply* reply) const {
   SCENELOC_RETURN_IF_ERROR(CheckReload(request));
-  const std::string path =
-      (std::filesystem::path(options_.maps_dir) / (request.map() + kMapFileExtension)).string();
-  SCENELOC_ASSIGN_OR_RETURN(const auto loaded, registry_->Load(path));
+  SCENELOC_ASSIGN_OR_RETURN(const auto loaded,
+                            registry_->Load(MapFilePath(options_.maps_dir, request.map())));
   FillMapInfo(*loaded, reply->mutable_map());
   return Status::Ok();
 }

@@ -54,17 +54,14 @@ struct Args {
 };
 
 // A stated camera scale's range; CLI::Range alone lets NaN through.
-CLI::Validator CameraScaleRange() {
+CLI::Validator CameraScaleValidator() {
   return CLI::Validator(
       [](std::string& text) {
         double x = 0;
-        if (!CLI::detail::lexical_cast(text, x) || !std::isfinite(x) || x < sl::kMinCameraScale ||
-            x > sl::kMaxCameraScale) {
-          return std::string("must be a number in [0.25, 4]");
-        }
-        return std::string();
+        const bool ok = CLI::detail::lexical_cast(text, x) && sl::CheckCameraScale(x).ok();
+        return ok ? std::string() : "must be a number in " + sl::CameraScaleRange();
       },
-      "in [0.25, 4]");
+      "in " + sl::CameraScaleRange());
 }
 
 // The images of a folder extracted in the map's frame, one at a time (so extract times are
@@ -306,7 +303,7 @@ int main(int argc, char** argv) {
                  "length over image width against the tour camera's (default: not stated: the one "
                  "the frame's shape implies, the tour's for the tour's shape; in a session what "
                  "it learns)")
-      ->check(CameraScaleRange());
+      ->check(CameraScaleValidator());
   CLI11_PARSE(app, argc, argv);
   if (print_config) {
     sl::MatchOptions options;

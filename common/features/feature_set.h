@@ -40,6 +40,12 @@ struct Keypoint {
 };
 
 // The grid of a holistic descriptor (holistic.h): rows x cols cells of `bins` values each.
+// The largest holistic grid: the settings' ranges (holistic.h) and what a feature set from
+// the network may claim (proto/wire.h). Rows follow the frame's aspect from the columns.
+inline constexpr int kMaxHolisticCols = 64;
+inline constexpr int kMaxHolisticRows = 256;
+inline constexpr int kMaxHolisticBins = 36;
+
 struct HolisticGrid {
   int cols = 0;
   int rows = 0;

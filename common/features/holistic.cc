@@ -76,7 +76,7 @@ void NormaliseCells(const HolisticGrid& g, std::vector<float>* h) {
 SettingTable HolisticSettings(HolisticOptions* o, const std::string& section) {
   return {
       Setting(section, "holistic_cols", &o->cols)
-          .Range(4, 64)
+          .Range(4, kMaxHolisticCols)
           .Off(0)
           .Help("holistic descriptor grid width in cells (0 = none); rows by aspect"),
       Setting(section, "holistic_cell_pixels", &o->cell_pixels)
@@ -84,7 +84,7 @@ SettingTable HolisticSettings(HolisticOptions* o, const std::string& section) {
           .Unit("pixels")
           .Help("cell side on the holistic thumbnail"),
       Setting(section, "holistic_bins", &o->bins)
-          .Range(4, 36)
+          .Range(4, kMaxHolisticBins)
           .Help("gradient orientation bins over 360 degrees"),
       Setting(section, "holistic_max_shift", &o->max_shift)
           .Range(0, 63)

@@ -2,6 +2,7 @@
 
 #include <cctype>
 #include <cstring>
+#include <filesystem>
 
 namespace sceneloc {
 
@@ -26,6 +27,10 @@ std::string MapNameOfFile(const std::string& file_name) {
   }
   const std::string stem = file_name.substr(0, file_name.size() - extension);
   return IsValidMapName(stem) ? stem : "";
+}
+
+std::string MapFilePath(const std::string& maps_dir, const std::string& name) {
+  return (std::filesystem::path(maps_dir) / (name + kMapFileExtension)).string();
 }
 
 }  // namespace sceneloc

@@ -24,4 +24,8 @@ std::string MapNameOfFile(const std::string& file_name);
 // Why `name` is not a valid map name, for an error message ("" when it is).
 std::string MapNameProblem(const std::string& name);
 
+// The file of the map `name` in the maps folder `maps_dir`: <maps_dir>/<name>.scnl.
+// REQUIRES: IsValidMapName(name).
+std::string MapFilePath(const std::string& maps_dir, const std::string& name);
+
 }  // namespace sceneloc

@@ -38,6 +38,20 @@ Status CheckDeadline(const MatchOptions& options, const char* after, const Stage
 
 }  // namespace
 
+std::string CameraScaleRange() {
+  char range[64];
+  std::snprintf(range, sizeof(range), "[%g, %g]", kMinCameraScale, kMaxCameraScale);
+  return range;
+}
+
+Status CheckCameraScale(double scale) {
+  if (scale >= kMinCameraScale && scale <= kMaxCameraScale) return Status::Ok();
+  return InvalidArgument("camera_scale must be in " + CameraScaleRange() +
+                         " (the robot camera's focal length over image width, against the "
+                         "tour camera's), got " +
+                         std::to_string(scale));
+}
+
 StatusOr<FrameScores> ScoreLocations(const FeatureSet& features, const Map& map,
                                      const MatchOptions& options, ThreadPool* pool,
                                      LocaliseResult* stats) {

@@ -167,6 +167,10 @@ FrameCameraGuess FrameCamera(int width, int height, const Map& map);
 // quarter or four times the tour camera's, relative to image width.
 inline constexpr double kMinCameraScale = 0.25;
 inline constexpr double kMaxCameraScale = 4.0;
+// "[0.25, 4]": the range, as messages and help name it.
+std::string CameraScaleRange();
+// InvalidArgument naming the range unless `scale` is in [kMinCameraScale, kMaxCameraScale].
+Status CheckCameraScale(double scale);
 
 // The matching settings file's fields (configs/match.yaml), bound to `o`: matching: and
 // sequence: (match_settings.cc).
