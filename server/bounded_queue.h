@@ -19,6 +19,7 @@
 #include <utility>
 #include <vector>
 
+#include "common/util/check.h"
 #include "common/util/mutex.h"
 #include "common/util/thread_annotations.h"
 
@@ -64,6 +65,7 @@ class BoundedQueue {
     if (!large) return;
     {
       MutexLock lock(&mutex_);
+      SCENELOC_CHECK(large_held_ > 0) << "Done(true) without a large item held";
       --large_held_;
     }
     cv_.notify_all();  // a waiting consumer may take a large item now

@@ -1,7 +1,6 @@
 #include "common/synthetic/tour_generator.h"
 
 #include <algorithm>
-#include <cassert>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -15,6 +14,7 @@
 #include "common/synthetic/scene_texture.h"
 #include "common/synthetic/texture_painter.h"
 #include "common/synthetic/tour_camera.h"
+#include "common/util/check.h"
 
 // The scene is drawn by texture_painter (primitives, random streams), laid on planes by
 // scene_texture (facade, pillars) and seen through tour_camera (cameras, homographies);
@@ -137,8 +137,8 @@ class PassRenderer {
   std::string Encode(const cv::Mat& image) const {
     // The generator's own image and quality: an encoding error is a bug, not an input.
     StatusOr<std::string> bytes = EncodeJpeg(image, options_.jpeg_quality);
-    assert(bytes.ok());
-    return bytes.ok() ? *std::move(bytes) : std::string();
+    SCENELOC_CHECK(bytes.ok()) << bytes.status().ToString();
+    return *std::move(bytes);
   }
 
   const TourOptions options_;

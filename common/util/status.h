@@ -4,10 +4,11 @@
 // Thread-safe: values are immutable once built and safe to copy between threads.
 #pragma once
 
-#include <cassert>
 #include <optional>
 #include <string>
 #include <utility>
+
+#include "common/util/check.h"
 
 namespace sceneloc {
 
@@ -69,21 +70,34 @@ inline Status PermissionDenied(std::string m) {
 template <typename T>
 class [[nodiscard]] StatusOr {
  public:
-  StatusOr(Status status) : status_(std::move(status)) { assert(!status_.ok()); }  // NOLINT
-  StatusOr(T value) : value_(std::move(value)) {}                                  // NOLINT
+  // REQUIRES (checked): !status.ok().
+  StatusOr(Status status) : status_(std::move(status)) {  // NOLINT
+    SCENELOC_CHECK(!status_.ok()) << "a StatusOr made from an OK status holds no value";
+  }
+  StatusOr(T value) : value_(std::move(value)) {}  // NOLINT
 
   bool ok() const { return status_.ok(); }
   const Status& status() const { return status_; }
-  // REQUIRES: ok().
-  const T& value() const& { return *value_; }
-  T& value() & { return *value_; }
-  T&& value() && { return std::move(*value_); }
-  const T& operator*() const& { return *value_; }
-  T& operator*() & { return *value_; }
-  const T* operator->() const { return &*value_; }
-  T* operator->() { return &*value_; }
+  // REQUIRES (checked, in Release too: reading an error as a value would go on with
+  // garbage): ok().
+  const T& value() const& { return *Checked(); }
+  T& value() & { return *Checked(); }
+  T&& value() && { return std::move(*Checked()); }
+  const T& operator*() const& { return *Checked(); }
+  T& operator*() & { return *Checked(); }
+  const T* operator->() const { return &*Checked(); }
+  T* operator->() { return &*Checked(); }
 
  private:
+  const std::optional<T>& Checked() const {
+    SCENELOC_CHECK(value_.has_value()) << "the value of an error: " << status_.ToString();
+    return value_;
+  }
+  std::optional<T>& Checked() {
+    SCENELOC_CHECK(value_.has_value()) << "the value of an error: " << status_.ToString();
+    return value_;
+  }
+
   Status status_;
   std::optional<T> value_;
 };
