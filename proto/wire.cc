@@ -136,16 +136,15 @@ namespace {
 using google::protobuf::internal::WireFormatLite;
 
 // Inside the message `in` is positioned in (up to its limit): the length-delimited field
-// `field`, whose body `in` is then limited to (the limit to pop returned); false when there
-// is none or the bytes are malformed.
-bool EnterField(google::protobuf::io::CodedInputStream* in, int field,
-                google::protobuf::io::CodedInputStream::Limit* outer) {
+// `field`, to whose body `in` is then limited; false when there is none or the bytes are
+// malformed. The limits are never popped: the stream is read no further than the set.
+bool EnterField(google::protobuf::io::CodedInputStream* in, int field) {
   while (const uint32_t tag = in->ReadTag()) {
     if (WireFormatLite::GetTagFieldNumber(tag) == field &&
         WireFormatLite::GetTagWireType(tag) == WireFormatLite::WIRETYPE_LENGTH_DELIMITED) {
       uint32_t length = 0;
       if (!in->ReadVarint32(&length)) return false;
-      *outer = in->PushLimit(static_cast<int>(length));
+      in->PushLimit(static_cast<int>(length));
       return true;
     }
     if (!WireFormatLite::SkipField(in, tag)) return false;
@@ -159,10 +158,9 @@ int64_t CountWireKeypoints(const void* data, size_t size) {
   if (size > static_cast<size_t>(std::numeric_limits<int>::max())) return 0;
   google::protobuf::io::CodedInputStream in(static_cast<const uint8_t*>(data),
                                             static_cast<int>(size));
-  google::protobuf::io::CodedInputStream::Limit limit;
   // Request.localise (2), then LocaliseRequest.features (4). A field sent twice is merged
   // by the parser; the count here stops at the first, so the parse's check still applies.
-  if (!EnterField(&in, 2, &limit) || !EnterField(&in, 4, &limit)) return 0;
+  if (!EnterField(&in, 2) || !EnterField(&in, 4)) return 0;
   int64_t keypoints = 0;
   while (const uint32_t tag = in.ReadTag()) {
     if (WireFormatLite::GetTagFieldNumber(tag) == 3 &&

@@ -318,6 +318,13 @@ def mark(ok):
     return "yes" if ok else "**no**"
 
 
+def right_of(right, accepted):
+    """'right / accepted = share' (the share left out when nothing was accepted), and the
+    share (None then)."""
+    share = right / accepted if accepted else None
+    return f"{right} / {accepted}" + (f" = {share:.3f}" if share is not None else ""), share
+
+
 def loo_targets(loo):
     """The confidence's targets for a building nobody tuned on, each set held out: nothing at
     >= 0.99 more than 5 frames off; >= 98% of the answers at >= 0.95 right; the share of right
@@ -332,10 +339,9 @@ def loo_targets(loo):
     rows = []
     for h in loo["sets"]:
         held, ship = h["held_out"]["confidence"], h["shipped"]["confidence"]
-        share = h["right_95"] / h["accepted_95"] if h["accepted_95"] else None
+        right, share = right_of(h["right_95"], h["accepted_95"])
         rows.append([h["set"], f"{h['gross_99']} ({mark(h['gross_99'] == 0)})",
-                     f"{h['right_95']} / {h['accepted_95']}"
-                     + (f" = {share:.3f} ({mark(share >= 0.98)})" if share is not None else ""),
+                     right + (f" ({mark(share >= 0.98)})" if share is not None else ""),
                      f"{held['correct_accepted']:.2f} vs {ship['correct_accepted']:.2f} "
                      f"({mark(held['correct_accepted'] >= ship['correct_accepted'] - 0.05)})"])
     out += table(["set", "> 5 frames off at ≥ 0.99", "right at ≥ 0.95",
@@ -359,11 +365,9 @@ def loo_sessions(loo):
     for h in sets:
         x = h["session"]
         c = x["summary"]["confidence"]
-        share = x["right_95"] / x["accepted_95"] if x["accepted_95"] else None
         rows.append([h["set"], f"{c['ece']:.3f} ({c['ece_floor']:.3f})",
                      f"{c['accepted_precision']:.3f}", f"{c['accepted']:.2f}",
-                     f"{x['right_95']} / {x['accepted_95']}"
-                     + (f" = {share:.3f}" if share is not None else ""),
+                     right_of(x["right_95"], x["accepted_95"])[0],
                      f"{x['gross_99']} ({mark(x['gross_99'] == 0)})"])
     out += table(["set", "ECE (floor)", "LOCALISED precision", "share LOCALISED",
                   "right at ≥ 0.95", "> 5 frames off at ≥ 0.99"], rows)

@@ -12,8 +12,19 @@ double ZmqServer::ServiceMs() const {
   return ms > 0 ? ms : 100.0;
 }
 
+namespace {
+
+// The requests waiting ahead of a new one: every one for a large request, the small ones
+// for a small request (it is taken ahead of the large ones).
+template <typename Queue>
+size_t Ahead(const Queue& queue, bool large) {
+  return large ? queue.size() : queue.size_of(false);
+}
+
+}  // namespace
+
 double ZmqServer::QueuedWorkMs(bool large) const {
-  const size_t ahead = large ? queue_.size() : queue_.size_of(false);
+  const size_t ahead = Ahead(queue_, large);
   const int workers =
       large ? options_.threads : std::max(1, options_.threads - queue_.large_held());
   return static_cast<double>(ahead) * service_ms_.load(std::memory_order_relaxed) / workers;
@@ -26,7 +37,7 @@ Refusal ZmqServer::WaitRefusal(bool large) const {
   const int limit = options_.limits.max_queue_wait_ms;
   if (wait_ms <= limit) return {};
   return {"about " + std::to_string(static_cast<int>(wait_ms)) + " ms of work (" +
-              std::to_string(large ? queue_.size() : queue_.size_of(false)) + " requests of ~" +
+              std::to_string(Ahead(queue_, large)) + " requests of ~" +
               std::to_string(static_cast<int>(ServiceMs())) +
               " ms) is queued ahead of this request; limits.max_queue_wait_ms is " +
               std::to_string(limit),

@@ -159,7 +159,7 @@ class ZmqServer final : public Server {
   // time: for a large one (parsed on a worker) everything queued over every worker; for a
   // small one only the small requests queued, over the workers not holding a large one (it
   // is taken ahead of large ones). Any thread.
-  double QueuedWorkMs(bool large = true) const;
+  double QueuedWorkMs(bool large) const;
   // Admits when the work queued ahead of a new request is estimated to take no longer than
   // limits.max_queue_wait_ms; else the estimate and the limit, and as the retry hint the
   // time for the queue to drain below the limit.
