@@ -68,6 +68,12 @@ TEST(AccuracySuiteTest, PooledSummaryJudgesEachQueryAgainstItsOwnSet) {
   EXPECT_EQ(all.ours.confidence.queries, 6);
   EXPECT_DOUBLE_EQ(all.ours.confidence.accepted_precision, 1.0);  // .9 .8 .7 .6, all right
 
+  // A generated tour is not a real set, though its query frames are its own.
+  SetResult street = HandMadeSet(QueryChange::kNone, {{3, 3, 0.9f}});
+  street.set.generated = TourOptions();
+  EXPECT_EQ(PooledSummary({real, street}, /*unchanged_only=*/true, judging).queries, 4u);
+  EXPECT_EQ(PooledSummary({real, street}, /*unchanged_only=*/false, judging).queries, 5u);
+
   const EvalSummary one = PooledSummary({real}, /*unchanged_only=*/false, judging);
   const EvalSummary own = Summarise(real.outcomes, /*with_baseline=*/true, judging);
   EXPECT_DOUBLE_EQ(one.ours.confidence.pr_auc, own.ours.confidence.pr_auc);

@@ -427,7 +427,7 @@ EvalSummary PooledSummary(const std::vector<SetResult>& results, bool unchanged_
                           const Judging& judging) {
   std::vector<QueryOutcome> pooled;
   for (const SetResult& r : results) {
-    if (unchanged_only && r.set.change != QueryChange::kNone) continue;
+    if (unchanged_only && (r.set.change != QueryChange::kNone || r.set.generated)) continue;
     pooled.insert(pooled.end(), r.outcomes.begin(), r.outcomes.end());
   }
   return Summarise(pooled, /*with_baseline=*/true, judging);

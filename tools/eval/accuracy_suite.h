@@ -124,10 +124,10 @@ StatusOr<SetResult> RunSet(const SuiteSet& set, const SuiteSettings& settings,
 // single-frame outcomes against `map`, as RunSet does.
 void SummariseSessions(const Map& map, const SuiteSettings& settings, SetResult* result);
 
-// Every single-frame query of `results` (of the sets whose query frames are used as they are,
-// when `unchanged_only`) in one summary of ours and both baselines, each query judged against
-// its own set's truth. One set's 55-100 queries put the ECE's sampling floor (what a
-// perfectly calibrated confidence would measure) at 0.05-0.10 by itself; pooled, the floor
+// Every single-frame query of `results` (with `unchanged_only`, of the real sets: query
+// frames used as they are, and no generated tour) in one summary of ours and both baselines, each
+// query judged against its own set's truth. One set's 55-100 queries put the ECE's sampling floor
+// (what a perfectly calibrated confidence would measure) at 0.05-0.10 by itself; pooled, the floor
 // falls to a few hundredths and the calibration itself shows.
 EvalSummary PooledSummary(const std::vector<SetResult>& results, bool unchanged_only,
                           const Judging& judging);
