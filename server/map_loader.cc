@@ -40,7 +40,7 @@ MapLoader::LoadResult LoadAndLog(const std::string& why, const std::string& map,
     spdlog::info(
         "{}: map {} generation {} checksum {:08x} now serving ({} locations, {:.1f} MB in memory, "
         "{}) after {:.0f} ms",
-        why, m.name, m.generation, m.checksum, m.map.num_images(), m.map.MemoryBytes() / 1e6,
+        why, m.name, m.generation, m.checksum, m.map.num_places(), m.map.MemoryBytes() / 1e6,
         m.path, watch.Milliseconds());
   } else {
     spdlog::error("{}: map {} not reloaded, the version serving (if any) stays: {}", why, map,

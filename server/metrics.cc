@@ -79,7 +79,7 @@ std::vector<MetricFamily> Held(const ServerGauges& g, const MapRegistry& maps) {
   for (const auto& map : loaded) {
     const std::vector<ClientMetric::Label> label = {{"map", map->name}};
     generation.push_back(Value(static_cast<double>(map->generation), label));
-    locations.push_back(Value(map->map.num_images(), label));
+    locations.push_back(Value(map->map.num_places(), label));
     landmarks.push_back(Value(map->map.num_landmarks(), label));
     bytes.push_back(Value(static_cast<double>(map->map.MemoryBytes()), label));
   }

@@ -84,7 +84,7 @@ StatusOr<FeatureSet> ExtractJpeg(const std::string& jpeg, const LoadedMap& map,
 
 TokenOwner TokenOwnerOf(const std::string& client, const v1::LocaliseRequest& request,
                         const LoadedMap& map) {
-  return {client, request.session(), map.checksum, map.map.num_images(),
+  return {client, request.session(), map.checksum, map.map.num_places(),
           map.sequence->num_speeds()};
 }
 
@@ -177,7 +177,7 @@ void FillMapInfo(const LoadedMap& map, v1::MapInfo* info) {
   info->mutable_version()->set_generation(map.generation);
   info->mutable_version()->set_checksum(map.checksum);
   info->set_path(map.path);
-  info->set_num_locations(map.map.num_images());
+  info->set_num_locations(map.map.num_places());
   info->set_num_landmarks(map.map.num_landmarks());
   info->set_memory_bytes(map.map.MemoryBytes());
   info->set_loaded_utc(IsoUtc(map.loaded_at));
@@ -341,7 +341,7 @@ double RequestHandler::UpdateSession(const v1::LocaliseRequest& request, const s
   out->set_state(SerializeSessionToken(after, owner));
   out->set_name(request.session());
   out->set_location(answer.location);
-  out->set_image_name(map.map.image_names[answer.location]);
+  out->set_image_name(map.map.PlaceName(answer.location));
   out->set_probability(static_cast<float>(answer.probability));
   out->set_off_map(static_cast<float>(answer.off_map));
   out->set_belief(static_cast<float>(answer.belief));

@@ -64,7 +64,7 @@ bool LoadAll(sceneloc::MapRegistry* registry, const std::string& dir) {
     spdlog::info(
         "map {} generation {} checksum {:08x}: {} locations, {} landmarks, {:.1f} MB in "
         "memory ({})",
-        map->name, map->generation, map->checksum, map->map.num_images(), map->map.num_landmarks(),
+        map->name, map->generation, map->checksum, map->map.num_places(), map->map.num_landmarks(),
         map->map.MemoryBytes() / 1e6, map->path);
   }
   spdlog::info("{} map(s) loaded from {} after {:.0f} ms", registry->List().size(), dir, ms);

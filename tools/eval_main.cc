@@ -101,7 +101,7 @@ sl::StatusOr<std::vector<sl::FeatureSet>> BaselineTour(const Args& args, const s
   if (!paths.ok()) return sl::NotFound("baseline tour: " + paths.status().message());
   std::vector<std::string> names;
   for (const auto& p : *paths) names.push_back(sl::FileName(p));
-  if (names != map.image_names) {
+  if (names != map.PlaceNames()) {
     return sl::InvalidArgument("baseline tour '" + dir + "' does not hold the map's tour images");
   }
   return sl::ExtractFolder(*paths, map.options.extractor, args.threads, nullptr);
@@ -151,7 +151,7 @@ sl::StatusOr<Queries> PrepareQueries(const Args& args, const sl::Map& map) {
   for (const auto& p : paths) names.push_back(sl::FileName(p));
   // After reading the images, so a file that is not an image is reported as such.
   SCENELOC_ASSIGN_OR_RETURN(const std::vector<int> truth,
-                            sl::ResolveTruth(names, map.image_names, ground_truth));
+                            sl::ResolveTruth(names, map.PlaceNames(), ground_truth));
   queries.outcomes.resize(names.size());
   for (size_t q = 0; q < names.size(); ++q) {
     queries.outcomes[q].name = names[q];
@@ -251,7 +251,7 @@ int Run(const Args& args) {
   const sl::Judging shown{map->options.tolerance,
                           session ? options.sequence.min_confidence : options.min_confidence};
   const EvalSummary s = sl::Summarise(outcomes, args.with_baseline, shown);
-  if (args.show) sl::PrintAnswers(outcomes, map->image_names, args.tolerance, shown.threshold);
+  if (args.show) sl::PrintAnswers(outcomes, map->PlaceNames(), args.tolerance, shown.threshold);
   sl::EvalReport report = ReportHeading(args, load_ms);
   report.summary = &s;
   report.outcomes = &outcomes;

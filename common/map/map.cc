@@ -7,6 +7,8 @@
 #include <sstream>
 #include <string>
 
+#include "common/map/places.h"
+
 namespace sceneloc {
 namespace {
 
@@ -300,17 +302,17 @@ Status ValidateLookAlikes(const Map& m) {
     }
     return Status::Ok();
   }
-  const size_t n = m.image_names.size();
+  const size_t n = CountPlaces(m);
   if (m.lookalike_offsets.size() != n + 1 || m.lookalike_offsets.front() != 0 ||
       m.lookalike_offsets.back() != m.lookalike_location.size() ||
       m.lookalike_ratio.size() != m.lookalike_location.size() ||
       !std::is_sorted(m.lookalike_offsets.begin(), m.lookalike_offsets.end())) {
-    return DataLoss("look-alike lists do not match the tour images");
+    return DataLoss("look-alike lists do not match the places");
   }
   for (size_t i = 0; i < m.lookalike_location.size(); ++i) {
     if (m.lookalike_location[i] >= n || !(m.lookalike_ratio[i] > 0.0f) ||
         !(m.lookalike_ratio[i] <= 1.0f)) {
-      return DataLoss("look-alike " + std::to_string(i) + " names no tour image or its ratio " +
+      return DataLoss("look-alike " + std::to_string(i) + " names no place or its ratio " +
                       "is outside (0, 1]");
     }
   }
@@ -323,6 +325,7 @@ Status Map::Validate() const {
   Status options_status = options.Validate();
   if (!options_status.ok()) return DataLoss("training options: " + options_status.message());
   SCENELOC_RETURN_IF_ERROR(ValidateImages(*this));
+  SCENELOC_RETURN_IF_ERROR(ValidatePlaces(*this));
   SCENELOC_RETURN_IF_ERROR(ValidateHolistic(*this));
   SCENELOC_RETURN_IF_ERROR(ValidateCalibration(*this));
   SCENELOC_RETURN_IF_ERROR(ValidateLandmarkCounts(*this));
@@ -354,6 +357,7 @@ void Map::ContextMean(int g, float* out) const {
 }
 
 void Map::Finalize() {
+  DerivePlaces(this);
   const Eigen::Index l = local_mean.rows();
   constexpr Eigen::Index kBlock = 4096;
   // The means as values, a block at a time (a big map's would be 512 bytes a landmark).
@@ -441,7 +445,11 @@ std::array<float, 2> Map::MeanPosition(int g) const {
 size_t Map::MemoryBytes() const {
   size_t bytes = sizeof(Map) + provenance.tour_dir.capacity() + provenance.created_utc.capacity() +
                  provenance.tool_version.capacity();
-  bytes += VectorBytes(image_names) + VectorBytes(holistic);
+  bytes += VectorBytes(image_names) + VectorBytes(holistic) + VectorBytes(image_place) +
+           VectorBytes(place_image) + VectorBytes(experiences);
+  for (const Experience& e : experiences) {
+    bytes += e.name.capacity() + e.source_dir.capacity() + e.created_utc.capacity();
+  }
   for (const std::string& name : image_names) bytes += name.capacity();
   bytes += MatrixBytes(local_mean) + MatrixBytes(context_mean) + MatrixBytes(context_dmax) +
            MatrixBytes(context_var);

@@ -54,13 +54,46 @@ struct MapProvenance {
   uint32_t num_candidates = 0;  // landmarks before selection
 };
 
+// One walk that made part of a map (an experience): the tour it was trained from, or a walk
+// added to it later (sceneloc-train --extend, common/training/extend.h).
+enum class ExperienceKind : uint32_t {
+  kTour = 0,       // the walk the map was trained from: its images are the first places
+  kRoute = 1,      // the route again under other conditions: each image is another view of
+                   // the place the walk was aligned to
+  kNewGround = 2,  // ground the map did not cover: each image is a new place
+};
+const char* ExperienceKindName(ExperienceKind kind);
+
+struct Experience {
+  std::string name;         // the walk's name (its folder's, unless given)
+  std::string source_dir;   // the folder as given
+  std::string created_utc;  // ISO 8601
+  ExperienceKind kind = ExperienceKind::kTour;
+  // Its images are [first_image, first_image + num_images) of the map's.
+  uint32_t first_image = 0;
+  uint32_t num_images = 0;
+  // Frames the walk had: those the map recognised with confidence added nothing.
+  uint32_t walk_frames = 0;
+  // The walk's own off-map level (its images against themselves): how likely a frame is to
+  // show this walk's ground, the others' aside (confidence.h WalkInMapProbability).
+  Calibration calibration;
+};
+
 struct Map {
   TrainOptions options;
   MapProvenance provenance;
   Calibration calibration;
 
-  // Tour images, in tour order; the index is the location number.
+  // Tour images, walk after walk (experiences), each walk in its order.
   std::vector<std::string> image_names;
+  // Places (the locations an answer names) and images: image i shows place image_place[i].
+  // Empty: one image per place, image i is place i (a map of one walk, format versions 1-8).
+  // A place's name is its first image's. Places are numbered along the route: the tour's
+  // images are places 0..N-1, new ground follows.
+  std::vector<uint32_t> image_place;
+  // The walks the images came from, in image order, covering every image; empty in maps of
+  // format versions 1-8 (one walk, the tour).
+  std::vector<Experience> experiences;
   int image_width = 0;  // working frame of the tour images (extractor.h), pixels
   int image_height = 0;
   // Holistic descriptor of every tour image (holistic.h): N x holistic_grid.size() values as
@@ -99,8 +132,8 @@ struct Map {
   // The coarse stage's index (place_index.h); empty in maps searched whole.
   PlaceIndex place_index;
 
-  // Look-alikes (CSR over tour images; common/training/lookalikes.h): the places elsewhere
-  // on the route that a tour image's frame verifies against, each with how much of the
+  // Look-alikes (CSR over places; common/training/lookalikes.h): the places elsewhere
+  // on the route that a place's frame verifies against, each with how much of the
   // image's own verified evidence it reaches (in (0, 1]). The confidence reads the evidence
   // of an answer's look-alikes as weaker than that of distinct places. All three empty in
   // maps made without them (format versions 1-6).
@@ -123,9 +156,21 @@ struct Map {
   std::vector<float> local_residual_norm;
   // The place index's inverted file (empty without one).
   InvertedFile inverted_file;
+  // The first image of every place (its name's); empty when image i is place i.
+  std::vector<uint32_t> place_image;
 
   int num_landmarks() const { return static_cast<int>(local_mean.rows()); }
   int num_images() const { return static_cast<int>(image_names.size()); }
+  // Places: what answers, tolerances, the confidence and sessions count in.
+  int num_places() const {
+    return image_place.empty() ? num_images() : static_cast<int>(place_image.size());
+  }
+  int PlaceOf(int image) const { return image_place.empty() ? image : int(image_place[image]); }
+  const std::string& PlaceName(int place) const {
+    return image_place.empty() ? image_names[place] : image_names[place_image[place]];
+  }
+  // Every place's name, in place order.
+  std::vector<std::string> PlaceNames() const;
   bool has_holistic() const { return !holistic_grid.empty(); }
   bool has_place_index() const { return !place_index.empty(); }
   bool has_lookalikes() const { return !lookalike_offsets.empty(); }

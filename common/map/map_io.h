@@ -3,7 +3,7 @@
 // sequence makes LoadMap or ParseMap crash, read out of bounds or allocate much more
 // than the file's own size; each failure is a status whose message names the file.
 //
-// Layout, format version 8. Integers are little-endian two's complement, f32/f64 are
+// Layout, format version 9. Integers are little-endian two's complement, f32/f64 are
 // IEEE 754 binary32/binary64 little-endian. There is no padding anywhere.
 //
 //   Header, 32 bytes:
@@ -50,6 +50,15 @@
 //     Look-alikes    arr<u32> lookalike_offsets, arr<u32> lookalike_location,
 //                    arr<f32> lookalike_ratio (all empty in a map without them; map.h)
 //                    (version 7; versions 1-6 end before them)
+//     Places         arr<u32> image_place (the place each image shows; empty: image i is
+//                    place i)
+//     Experiences    arr<str> experience_name, arr<str> experience_source, arr<str>
+//                    experience_created, arr<u32> experience_kind (0 tour, 1 route, 2 new
+//                    ground), arr<u32> experience_first_image, arr<u32> experience_images,
+//                    arr<u32> experience_walk_frames, arr<u32>
+//                    experience_calibration_samples (0: none), arr<f32>
+//                    experience_off_map_distance, arr<f32> experience_off_map_spread: one
+//                    entry each per walk, in image order (map.h Experience)
 //   where  str       = u64 byte count, then the bytes (UTF-8, no terminator)
 //          arr<T>    = u64 element count, then the elements packed
 //          mat<T>    = u64 rows, u64 cols (must equal the stated count), rows x cols T
@@ -68,6 +77,8 @@
 //
 //   where a u8 flag is 0 or 1.
 //
+//   Format version 8 (still read): as 9 without the places and experiences (one walk, one
+//   image per place).
 //   Format version 7 (still read): as 8 with i32 place_index_dims after
 //   place_index_min_locations and the place index's holistic part as i32 holistic_max_shift,
 //   i32 holistic_dims, arr<f32> holistic_mean, arr<f32> holistic_axes, arr<f32>
@@ -122,7 +133,7 @@
 namespace sceneloc {
 
 inline constexpr char kMapMagic[8] = {'S', 'C', 'N', 'L', 'M', 'A', 'P', '\0'};
-inline constexpr uint32_t kMapFormatVersion = 8;
+inline constexpr uint32_t kMapFormatVersion = 9;
 inline constexpr size_t kMapHeaderBytes = 32;
 
 // What the header of a map file says.

@@ -10,7 +10,9 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <string>
 #include <type_traits>
+#include <vector>
 
 #include "common/map/map.h"
 
@@ -316,6 +318,59 @@ void Observations(Archive& a, uint32_t version, MapT& m) {
   }
 }
 
+// The experiences (format version 9) as parallel arrays, one entry per experience.
+template <typename Archive, typename MapT>
+void TransferExperiences(Archive& a, MapT& m) {
+  std::vector<std::string> name, source, created;
+  std::vector<uint32_t> kind, first, count, frames, samples;
+  std::vector<float> level, spread;
+  if constexpr (std::is_const_v<MapT>) {
+    for (const Experience& e : m.experiences) {
+      name.push_back(e.name);
+      source.push_back(e.source_dir);
+      created.push_back(e.created_utc);
+      kind.push_back(static_cast<uint32_t>(e.kind));
+      first.push_back(e.first_image);
+      count.push_back(e.num_images);
+      frames.push_back(e.walk_frames);
+      samples.push_back(e.calibration.valid ? e.calibration.samples : 0);
+      level.push_back(e.calibration.off_map_distance);
+      spread.push_back(e.calibration.off_map_spread);
+    }
+  }
+  a.Field("experience_name", name);
+  a.Field("experience_source", source);
+  a.Field("experience_created", created);
+  a.Field("experience_kind", kind);
+  a.Field("experience_first_image", first);
+  a.Field("experience_images", count);
+  a.Field("experience_walk_frames", frames);
+  a.Field("experience_calibration_samples", samples);
+  a.Field("experience_off_map_distance", level);
+  a.Field("experience_off_map_spread", spread);
+  if constexpr (!std::is_const_v<MapT>) {
+    const size_t n = name.size();
+    for (const size_t size :
+         {source.size(), created.size(), kind.size(), first.size(), count.size(), frames.size(),
+          samples.size(), level.size(), spread.size()}) {
+      if (size != n) {
+        a.Fail("the experiences' arrays differ in length");
+        return;
+      }
+    }
+    m.experiences.clear();
+    for (size_t i = 0; i < n; ++i) {
+      Calibration c;
+      c.valid = samples[i] > 0;
+      c.samples = samples[i];
+      c.off_map_distance = level[i];
+      c.off_map_spread = spread[i];
+      m.experiences.push_back({name[i], source[i], created[i], static_cast<ExperienceKind>(kind[i]),
+                               first[i], count[i], frames[i], c});
+    }
+  }
+}
+
 template <typename Archive, typename MapT, typename V1>
 void TransferMap(Archive& a, MapT& m, uint32_t version, V1& v1) {
   TransferOptions(a, m.options, version, v1);
@@ -368,6 +423,10 @@ void TransferMap(Archive& a, MapT& m, uint32_t version, V1& v1) {
     a.Field("lookalike_offsets", m.lookalike_offsets);
     a.Field("lookalike_location", m.lookalike_location);
     a.Field("lookalike_ratio", m.lookalike_ratio);
+  }
+  if (version >= 9) {
+    a.Field("image_place", m.image_place);
+    TransferExperiences(a, m);
   }
 }
 

@@ -103,6 +103,10 @@ class PayloadReader {
   PayloadReader(ByteSource* source, size_t size) : source_(source), size_(size) {}
 
   const Status& status() const { return status_; }
+  // Records a malformed payload (the first failure is kept).
+  void Fail(const std::string& message) {
+    if (status_.ok()) status_ = DataLoss(message);
+  }
   size_t remaining() const { return size_ - pos_; }
 
   template <typename T, IfArithmetic<T> = 0>
@@ -130,9 +134,6 @@ class PayloadReader {
   // declared count can never ask for more memory than the payload holds.
   bool Fits(const char* name, uint64_t count, size_t element_bytes);
   void Copy(const char* name, void* out, size_t n);
-  void Fail(const std::string& message) {
-    if (status_.ok()) status_ = DataLoss(message);
-  }
 
   ByteSource* source_;
   size_t size_;

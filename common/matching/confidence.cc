@@ -25,7 +25,7 @@ ConfidenceModel SupportedModel(const Map& map, ConfidenceModel wanted) {
 LocationTemperatures LookAlikeTemperatures(const Map& map, int answer, double temperature) {
   LocationTemperatures out;
   if (!map.has_lookalikes()) return out;
-  const int n = map.num_images(), tolerance = map.options.tolerance;
+  const int n = map.num_places(), tolerance = map.options.tolerance;
   for (uint32_t k = map.lookalike_offsets[answer]; k < map.lookalike_offsets[answer + 1]; ++k) {
     const int b = static_cast<int>(map.lookalike_location[k]);
     const double rho = std::min<double>(map.lookalike_ratio[k], kMaxLookAlikeRatio);
@@ -70,7 +70,10 @@ double LocationPosterior(const std::vector<float>& location_scores, int answer, 
 }
 
 double InMapProbability(const Map& map, double nearest_holistic_distance) {
-  const Calibration& c = map.calibration;
+  return InMapProbability(map, map.calibration, nearest_holistic_distance);
+}
+
+double InMapProbability(const Map& map, const Calibration& c, double nearest_holistic_distance) {
   if (!c.valid || nearest_holistic_distance < 0) return 1;
   const double x = (c.off_map_distance - nearest_holistic_distance) / c.off_map_spread;
   return 1 /

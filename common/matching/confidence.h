@@ -78,6 +78,9 @@ double LocationPosterior(const std::vector<float>& location_scores, int answer, 
 // P(in the map) from the query's smallest holistic distance to the tour; 1 when it is
 // unknown (negative: no holistic descriptor) or the map is uncalibrated.
 double InMapProbability(const Map& map, double nearest_holistic_distance);
+// The same read against one walk's level (map.h Experience::calibration), from the query's
+// smallest holistic distance to that walk's images: 1 for an invalid calibration.
+double InMapProbability(const Map& map, const Calibration& walk, double nearest_holistic_distance);
 
 // The paper's confidence: L1 / (L1 + L2) over the two highest L; 0 when nothing matched,
 // 1 with a single location.

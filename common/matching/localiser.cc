@@ -157,7 +157,7 @@ void RankAndAssess(const Map& map, const MatchOptions& options,
   for (size_t i = 0; i < candidates.size() && result->ranked.size() < k; ++i) {
     const CandidateEvidence& c = candidates[i];
     result->ranked.push_back(
-        {c.location, map.image_names[c.location], c.likelihood, c.inliers, c.log_scale});
+        {c.location, map.PlaceName(c.location), c.likelihood, c.inliers, c.log_scale});
   }
   for (size_t i = 0; i < rest.size() && result->ranked.size() < k; ++i) {
     result->ranked.push_back(rest[i]);
@@ -173,6 +173,41 @@ void RankAndAssess(const Map& map, const MatchOptions& options,
                                  result->nearest_holistic_distance, options));
   result->decision =
       result->confidence >= options.min_confidence ? Decision::kLocalised : Decision::kUnknown;
+}
+
+// Places: a map extended by walks (map.h experiences) shows a place in several images,
+// scored and verified one by one up to here; from here on the pipeline reads places. Each
+// candidate names its place, and of a place's verified images the best by fused evidence
+// speaks for it (earlier as selected on a tie). A map of one walk is left as it is.
+void PoolPlaces(const Map& map, const MatchOptions& options,
+                std::vector<CandidateEvidence>* candidates) {
+  for (CandidateEvidence& c : *candidates) c.image = c.location;
+  if (map.image_place.empty()) return;
+  std::vector<int> kept(static_cast<size_t>(map.num_places()), -1);
+  std::vector<CandidateEvidence> pooled;
+  for (CandidateEvidence& c : *candidates) {
+    c.location = map.PlaceOf(c.image);
+    int& k = kept[static_cast<size_t>(c.location)];
+    if (k < 0) {
+      k = static_cast<int>(pooled.size());
+      pooled.push_back(c);
+    } else if (FuseEvidence(c, options) > FuseEvidence(pooled[static_cast<size_t>(k)], options)) {
+      pooled[static_cast<size_t>(k)] = c;
+    }
+  }
+  *candidates = std::move(pooled);
+}
+
+// Per place, the largest of its images' `values` (those of a map of one walk as they are).
+std::vector<float> PlaceMaxima(const Map& map, const std::vector<float>& values) {
+  if (map.image_place.empty() || values.empty()) return values;
+  std::vector<float> out(static_cast<size_t>(map.num_places()),
+                         -std::numeric_limits<float>::infinity());
+  for (size_t i = 0; i < values.size(); ++i) {
+    float& v = out[map.image_place[i]];
+    v = std::max(v, values[i]);
+  }
+  return out;
 }
 
 // Verifies every candidate (one RANSAC each, spread over the pool).
@@ -229,6 +264,73 @@ struct QueryHolistic {
 // confidence was calibrated on, whatever the map's size. (Against an even sample of a big
 // map, its typical place, the places a query resembles all stand out and the confidence
 // rises with the map: docs/history.md "Maps that grow".)
+// RobustZ of `distance` (every image's), each walk of the map (map.h experiences) read against
+// the distances of its own images among `reference` (images; null: every image): a night walk's
+// images all lie further from a day query than the day's do, and new ground's from a frame of
+// the route, so against one pooled reference a walk's places would stand out, or not, as a
+// block. Read each against its own, as a map of that walk alone would read it. A walk with
+// fewer than kMinOwnReference images in the reference is read against the whole reference.
+std::vector<float> WalkZ(const Map& map, const std::vector<float>& distance,
+                         const std::vector<int>* reference) {
+  constexpr size_t kMinOwnReference = 20;
+  std::vector<float> all;
+  if (reference != nullptr) {
+    for (const int i : *reference) all.push_back(distance[static_cast<size_t>(i)]);
+  }
+  const std::vector<float>& pooled = reference != nullptr ? all : distance;
+  if (map.experiences.size() < 2 || distance.size() != static_cast<size_t>(map.num_images())) {
+    return RobustZ(distance, pooled);  // one walk, or no holistic evidence
+  }
+  std::vector<float> z(distance.size());
+  std::vector<int> walk_of(distance.size(), 0);
+  for (size_t e = 0; e < map.experiences.size(); ++e) {
+    const Experience& x = map.experiences[e];
+    for (uint32_t i = x.first_image; i < x.first_image + x.num_images; ++i) walk_of[i] = int(e);
+  }
+  for (size_t e = 0; e < map.experiences.size(); ++e) {
+    const Experience& x = map.experiences[e];
+    std::vector<float> own, values;
+    if (reference != nullptr) {
+      for (const int i : *reference) {
+        if (walk_of[static_cast<size_t>(i)] == int(e)) own.push_back(distance[size_t(i)]);
+      }
+    } else {
+      own.assign(distance.begin() + x.first_image, distance.begin() + x.first_image + x.num_images);
+    }
+    values.assign(distance.begin() + x.first_image,
+                  distance.begin() + x.first_image + x.num_images);
+    const std::vector<float> walk = RobustZ(values, own.size() >= kMinOwnReference ? own : pooled);
+    std::copy(walk.begin(), walk.end(), z.begin() + x.first_image);
+  }
+  return z;
+}
+
+// A map of walks over different ground (new ground, map.h experiences): each image's
+// z-score is weighed by the probability that the query shows its walk's ground at all, from
+// the query's nearest image of that walk against the walk's own off-map level
+// (InMapProbability): its posterior weight, exp(z / T) at the map's temperature T, is
+// multiplied by that probability (floored at kWalkFloor). Without it a frame of one walk's
+// ground meets the other walk's places at their chance level, read against their own walk
+// (WalkZ), as if it were one of theirs. A map of one walk, or of walks without their own
+// level, is left as it is.
+void WeighByWalk(const Map& map, const std::vector<float>& distance, std::vector<float>* z) {
+  constexpr double kWalkFloor = 1e-4;
+  if (map.experiences.size() < 2 || distance.size() != static_cast<size_t>(map.num_images())) {
+    return;
+  }
+  for (const Experience& x : map.experiences) {
+    if (!x.calibration.valid) return;
+  }
+  const double t = map.options.confidence_temperature;
+  for (const Experience& x : map.experiences) {
+    const auto begin = distance.begin() + x.first_image;
+    const float nearest = *std::min_element(begin, begin + x.num_images);
+    const double p = std::max(kWalkFloor, InMapProbability(map, x.calibration, nearest));
+    const auto weight = static_cast<float>(t * std::log(p));
+    for (uint32_t i = x.first_image; i < x.first_image + x.num_images; ++i) (*z)[i] += weight;
+  }
+}
+
 QueryHolistic MeasureHolistic(const FeatureSet& features, const Map& map,
                               const LandmarkScope& scope, const PlaceSearch* search,
                               ThreadPool* pool) {
@@ -236,7 +338,8 @@ QueryHolistic MeasureHolistic(const FeatureSet& features, const Map& map,
   const int max_shift = map.options.extractor.holistic.max_shift;
   if (search == nullptr) {
     h.distance = HolisticDistances(features, map, max_shift, pool);
-    h.z = RobustZ(h.distance);
+    h.z = WalkZ(map, h.distance, nullptr);
+    WeighByWalk(map, h.distance, &h.z);
     return h;
   }
   if (search->holistic.empty()) return h;
@@ -244,7 +347,8 @@ QueryHolistic MeasureHolistic(const FeatureSet& features, const Map& map,
   const std::vector<int>& exact = scope.locations();
   const std::vector<float> measured = HolisticDistancesTo(features, map, exact, max_shift, pool);
   for (size_t i = 0; i < exact.size(); ++i) h.distance[exact[i]] = measured[i];
-  h.z = RobustZ(h.distance, measured);
+  h.z = WalkZ(map, h.distance, &exact);
+  WeighByWalk(map, h.distance, &h.z);
   return h;
 }
 
@@ -290,18 +394,22 @@ StatusOr<LocaliseResult> LocaliseInFrame(const FeatureSet& features, const Map& 
 
   stage.Reset();
   VerifyCandidates(features, map, scope, scores, options, pool, &candidates);
-  result.location_scores = LocationScores(candidates, holistic_z, likelihood.size(), options);
   if (!holistic.empty()) {
     result.nearest_holistic_distance = *std::min_element(selectable.begin(), selectable.end());
   }
-  // The locations not verified, by L: as many as a ranked list could need.
-  std::vector<bool> verified(likelihood.size(), false);
-  for (const CandidateEvidence& c : candidates) verified[c.location] = true;
+  PoolPlaces(map, options, &candidates);
+  result.location_scores =
+      LocationScores(candidates, PlaceMaxima(map, holistic_z), map.num_places(), options);
+  // The places not verified, by L: as many as a ranked list could need.
+  std::vector<bool> listed(static_cast<size_t>(map.num_places()), false);
+  for (const CandidateEvidence& c : candidates) listed[c.location] = true;
   std::vector<RankedLocation> rest;
   for (size_t i = 0; i < by_likelihood.size() && rest.size() < static_cast<size_t>(options.top_k);
        ++i) {
-    const int l = by_likelihood[i];
-    if (!verified[l]) rest.push_back({l, map.image_names[l], likelihood[l], -1, 0.0f});
+    const int l = by_likelihood[i], place = map.PlaceOf(l);
+    if (listed[place]) continue;
+    listed[place] = true;
+    rest.push_back({place, map.PlaceName(place), likelihood[l], -1, 0.0f});
   }
   result.timings.verify_ms = stage.Milliseconds();
   result.candidates = std::move(candidates);
@@ -350,13 +458,14 @@ StatusOr<LocaliseResult> Localise(const FeatureSet& features, const Map& map,
 }
 
 void ReadWithCamera(const Map& map, const MatchOptions& options, LocaliseResult* result) {
-  std::vector<bool> verified(static_cast<size_t>(map.num_images()), false);
+  const int places = map.num_places();
+  std::vector<bool> verified(static_cast<size_t>(places), false);
   for (const CandidateEvidence& c : result->candidates) {
-    if (c.location >= 0 && c.location < map.num_images()) verified[c.location] = true;
+    if (c.location >= 0 && c.location < places) verified[c.location] = true;
   }
   std::vector<RankedLocation> rest;
   for (const RankedLocation& r : result->ranked) {
-    if (r.index < 0 || r.index >= map.num_images() || !verified[r.index]) rest.push_back(r);
+    if (r.index < 0 || r.index >= places || !verified[r.index]) rest.push_back(r);
   }
   // The candidates in the order SelectCandidates chose them, which breaks exact ties: the
   // verify_top best by L (lower location first on equal L, as RankByValue), then the others

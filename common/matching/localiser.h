@@ -177,8 +177,8 @@ Status CheckCameraScale(double scale);
 SettingTable MatchSettings(MatchOptions* o);
 
 struct RankedLocation {
-  int index = 0;           // tour location (image index in the map)
-  std::string image_name;  // tour image file name
+  int index = 0;           // place (Map::PlaceOf; the tour image in a map of one walk)
+  std::string image_name;  // the place's name (its first tour image's file name)
   float likelihood = 0;    // L(l)
   int inliers = -1;        // epipolar inliers when verified, else -1
   float log_scale = 0;     // median log(query / tour keypoint size) of the inliers
@@ -196,7 +196,10 @@ struct StageTimings {
 
 // Everything known about one verified candidate location.
 struct CandidateEvidence {
+  // The place (Map::PlaceOf): what answers and the confidence count in. Before places are
+  // pooled (Localise's last step) the tour image, as in a map of one walk.
   int location = 0;
+  int image = -1;          // the tour image verified (one of the place's experiences)
   float likelihood = 0;    // L(l), eq. 3
   float holistic = -1;     // holistic distance to tour image l; -1 without descriptors
   int holistic_rank = -1;  // its rank among all tour images by that distance (0 = best)
@@ -229,8 +232,8 @@ struct LocaliseResult {
   StageTimings timings;
   // The verified candidates, best first (the evidence behind the answer).
   std::vector<CandidateEvidence> candidates;
-  // Every tour location's evidence on the fused scale (LocationScores in evidence.h): the
-  // candidates' fused scores, the others' holistic z-score.
+  // Every place's evidence on the fused scale (LocationScores in evidence.h): the
+  // candidates' fused scores, the others' holistic z-score (of its best image).
   std::vector<float> location_scores;
   // The camera the evidence was read with (MatchOptions::camera_log_scale, camera_log_doubt):
   // the caller's when known, else the frame's (FrameCamera).

@@ -110,7 +110,7 @@ int SequenceFilter::MotionBand(const Map& map) {
 }
 
 SequenceFilter::SequenceFilter(const Map& map, const SequenceOptions& options)
-    : num_locations_(map.num_images()),
+    : num_locations_(map.num_places()),
       tolerance_(map.options.tolerance),
       temperature_(options.evidence_temperature),
       options_(options),

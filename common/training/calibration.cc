@@ -31,23 +31,22 @@ std::vector<float> RotateHolistic180(const float* h, const HolisticGrid& g) {
   return out;
 }
 
-void CalibrateMap(Map* map, ThreadPool* pool, int max_samples) {
-  map->calibration = Calibration();
-  if (!map->has_holistic() || map->holistic_grid.bins % 2 != 0) return;
-  const int n = map->num_images();
-  const int samples = std::max(1, std::min(n, max_samples));
-  const int shift =
-      std::min(map->options.extractor.holistic.max_shift, map->holistic_grid.cols - 1);
+Calibration CalibrateImages(const Map& map, int first, int count, ThreadPool* pool,
+                            int max_samples) {
+  Calibration c;
+  if (!map.has_holistic() || map.holistic_grid.bins % 2 != 0 || count <= 0) return c;
+  const int samples = std::max(1, std::min(count, max_samples));
+  const int shift = std::min(map.options.extractor.holistic.max_shift, map.holistic_grid.cols - 1);
   std::vector<float> nearest(static_cast<size_t>(samples));
   auto measure = [&](size_t begin, size_t end) {
     for (size_t s = begin; s < end; ++s) {
-      const int image = static_cast<int>(s * static_cast<size_t>(n) / samples);
+      const int image = first + static_cast<int>(s * static_cast<size_t>(count) / samples);
       const std::vector<float> turned =
-          RotateHolistic180(map->HolisticValues(image).data(), map->holistic_grid);
+          RotateHolistic180(map.HolisticValues(image).data(), map.holistic_grid);
       float best = std::numeric_limits<float>::max();
-      for (int l = 0; l < n; ++l) {
+      for (int l = first; l < first + count; ++l) {
         best = std::min(
-            best, HolisticDistance(turned.data(), map->holistic_of(l), map->holistic_grid, shift));
+            best, HolisticDistance(turned.data(), map.holistic_of(l), map.holistic_grid, shift));
       }
       nearest[s] = best;
     }
@@ -57,7 +56,6 @@ void CalibrateMap(Map* map, ThreadPool* pool, int max_samples) {
   } else {
     measure(0, nearest.size());
   }
-  Calibration& c = map->calibration;
   c.off_map_distance = Median(nearest);
   std::vector<float> deviation(nearest.size());
   for (size_t i = 0; i < nearest.size(); ++i) {
@@ -68,6 +66,11 @@ void CalibrateMap(Map* map, ThreadPool* pool, int max_samples) {
   c.off_map_spread = std::max(1.4826f * Median(deviation), 0.02f * c.off_map_distance + 1e-6f);
   c.samples = static_cast<uint32_t>(samples);
   c.valid = true;
+  return c;
+}
+
+void CalibrateMap(Map* map, ThreadPool* pool, int max_samples) {
+  map->calibration = CalibrateImages(*map, 0, map->num_images(), pool, max_samples);
 }
 
 }  // namespace sceneloc

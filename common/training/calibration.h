@@ -24,4 +24,10 @@ std::vector<float> RotateHolistic180(const float* h, const HolisticGrid& grid);
 // invalid calibration (the paper's confidence then). `pool` may be null.
 void CalibrateMap(Map* map, ThreadPool* pool, int max_samples = 200);
 
+// The same level for the images [first, first + count) alone (one walk of the map,
+// map.h Experience): their turned frames against those images only.
+// REQUIRES: the range lies within the map's images, count > 0.
+Calibration CalibrateImages(const Map& map, int first, int count, ThreadPool* pool,
+                            int max_samples = 200);
+
 }  // namespace sceneloc

@@ -56,7 +56,7 @@ StatusOr<std::vector<LookAlike>> MeasureLookAlikes(
 }
 
 void StoreLookAlikes(const std::vector<LookAlike>& lookalikes, float min_excess, Map* map) {
-  const size_t n = static_cast<size_t>(map->num_images());
+  const size_t n = static_cast<size_t>(map->num_places());
   std::vector<std::vector<std::pair<uint32_t, float>>> of(n);
   for (size_t t = 0; t < lookalikes.size() && t < n; ++t) {
     const LookAlike& a = lookalikes[t];

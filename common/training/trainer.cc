@@ -26,15 +26,6 @@ namespace {
 // thread busy, few enough that a batch of full-size features stays around 100 MB.
 constexpr size_t kBatchImages = 64;
 
-std::string UtcNow() {
-  const std::time_t now = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&now, &tm);
-  char buffer[32];
-  std::strftime(buffer, sizeof(buffer), "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return buffer;
-}
-
 void Report(const ProgressFn& progress, const char* stage, size_t done, size_t total) {
   if (progress) progress(stage, done, total);
 }
@@ -244,8 +235,11 @@ Status FinishMap(const TrainOptions& options, ThreadPool* pool, TrainSummary* s,
   p.num_features = static_cast<uint32_t>(s->features);
   p.num_tracks = static_cast<uint32_t>(s->tracks);
   p.num_candidates = static_cast<uint32_t>(s->landmarks_before_selection);
+  const auto n = static_cast<uint32_t>(map->num_images());
+  map->experiences = {{"tour", "", p.created_utc, ExperienceKind::kTour, 0, n, n}};
   watch.Reset();
   CalibrateMap(map, pool);
+  map->experiences.front().calibration = map->calibration;
   s->calibration_seconds = watch.Seconds();
   watch.Reset();
   BuildPlaceIndex(map, pool);
@@ -256,6 +250,15 @@ Status FinishMap(const TrainOptions& options, ThreadPool* pool, TrainSummary* s,
 }
 
 }  // namespace
+
+std::string UtcNow() {
+  const std::time_t now = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  char buffer[32];
+  std::strftime(buffer, sizeof(buffer), "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buffer;
+}
 
 StatusOr<std::vector<FeatureSet>> ExtractImages(const std::vector<std::string>& image_paths,
                                                 const ExtractorOptions& options,
@@ -369,7 +372,7 @@ Status ExtractToSpool(const std::vector<std::string>& image_paths, const Extract
 StatusOr<TrainResult> TrainFromTour(const TourFeatures& tour,
                                     const std::vector<std::string>& image_names,
                                     const TrainOptions& options, int threads,
-                                    const ProgressFn& progress) {
+                                    const ProgressFn& progress, bool lookalikes) {
   SCENELOC_RETURN_IF_ERROR(options.Validate());
   if (tour.size() < 2) {
     return FailedPrecondition("a tour needs at least 2 images, got " + std::to_string(tour.size()));
@@ -429,6 +432,7 @@ StatusOr<TrainResult> TrainFromTour(const TourFeatures& tour,
   s.fuse_seconds = watch.Seconds();
   chunks.clear();
   SCENELOC_RETURN_IF_ERROR(FinishMap(options, &pool, &s, &map));
+  if (!lookalikes) return result;
 
   watch.Reset();
   SCENELOC_ASSIGN_OR_RETURN(s.lookalikes,
@@ -473,6 +477,9 @@ StatusOr<TrainResult> TrainFromFolder(const std::string& tour_dir, const TrainOp
   result.summary.mixed_size_images = mixed_sizes;
   result.summary.spool_bytes = spool->bytes();
   result.map.provenance.tour_dir = tour_dir;
+  Experience& walk = result.map.experiences.front();
+  walk.source_dir = tour_dir;
+  walk.name = FolderName(tour_dir);
   return result;
 }
 

@@ -65,6 +65,9 @@ struct TrainResult {
   TrainSummary summary;
 };
 
+// Now, as ISO 8601 UTC ("2026-12-07T21:26:17Z"): when a map or an experience was made.
+std::string UtcNow();
+
 // Where each image is extracted, given its size.
 using TargetFn = std::function<ExtractionTarget(int width, int height)>;
 
@@ -97,10 +100,12 @@ Status ExtractToSpool(const std::vector<std::string>& image_paths, const Extract
                       size_t* mixed_sizes = nullptr);
 
 // Trains from a tour's features, read a window at a time. image_names[i] names image i.
+// `lookalikes` false skips measuring the map's look-alikes (a walk trained to extend a map,
+// extend.h, is measured there instead).
 StatusOr<TrainResult> TrainFromTour(const TourFeatures& tour,
                                     const std::vector<std::string>& image_names,
                                     const TrainOptions& options, int threads,
-                                    const ProgressFn& progress);
+                                    const ProgressFn& progress, bool lookalikes = true);
 
 // Trains from already extracted tour features. image_names[i] names tour[i].
 StatusOr<TrainResult> TrainFromFeatures(const std::vector<FeatureSet>& tour,

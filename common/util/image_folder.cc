@@ -58,4 +58,11 @@ StatusOr<std::vector<std::string>> ListImageFiles(const std::string& dir) {
 
 std::string FileName(const std::string& path) { return fs::path(path).filename().string(); }
 
+std::string FolderName(const std::string& dir) {
+  const fs::path path = fs::path(dir).lexically_normal();
+  std::string name = path.filename().string();
+  if (name.empty()) name = path.parent_path().filename().string();
+  return name.empty() ? dir : name;
+}
+
 }  // namespace sceneloc

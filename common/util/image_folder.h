@@ -23,4 +23,8 @@ bool NaturalLess(const std::string& a, const std::string& b);
 // The file name of a path ("/a/b/Image042.jpg" -> "Image042.jpg").
 std::string FileName(const std::string& path);
 
+// The last component of a folder's path, with or without a trailing separator
+// ("/data/gardens_point/day_left/" -> "day_left"); the path itself when it has none.
+std::string FolderName(const std::string& dir);
+
 }  // namespace sceneloc

@@ -70,6 +70,21 @@ Map MakeMapWithDistinctOptions() {
   map.provenance.num_features = 1001;
   map.provenance.num_tracks = 1002;
   map.provenance.num_candidates = 1003;
+  // Two walks: the tour's 10 images, then 5 more views of places 3-7.
+  map.image_place = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 3, 4, 5, 6, 7};
+  map.experiences = {{"day", "/data/day", "2026-12-01T10:00:00Z", ExperienceKind::kTour, 0, 10, 10},
+                     {"night",
+                      "/data/night",
+                      "2026-12-02T22:00:00Z",
+                      ExperienceKind::kRoute,
+                      10,
+                      5,
+                      12,
+                      {true, 0.5f, 0.05f, 5}}};
+  map.lookalike_offsets.clear();
+  map.lookalike_location.clear();
+  map.lookalike_ratio.clear();
+  map.Finalize();
   return map;
 }
 

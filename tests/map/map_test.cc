@@ -137,7 +137,7 @@ std::vector<Breakage> Breakages() {
        [](Map* m) {
          m->lookalike_offsets.assign(12, 0);  // one short of the 12 images
        },
-       "look-alike lists do not match the tour images"},
+       "look-alike lists do not match the places"},
       {"LookAlikeOutOfRange",
        [](Map* m) {
          m->lookalike_offsets.assign(13, 1);
@@ -145,7 +145,7 @@ std::vector<Breakage> Breakages() {
          m->lookalike_location = {12};
          m->lookalike_ratio = {0.5f};
        },
-       "look-alike 0 names no tour image"},
+       "look-alike 0 names no place"},
       {"LookAlikeRatioZero",
        [](Map* m) {
          m->lookalike_offsets.assign(13, 1);
@@ -154,6 +154,33 @@ std::vector<Breakage> Breakages() {
          m->lookalike_ratio = {0.0f};
        },
        "its ratio is outside (0, 1]"},
+      {"ImagePlaceShort", [](Map* m) { m->image_place.assign(11, 0); },
+       "image_place has 11 entries for 12 images"},
+      {"PlaceSkipped", [](Map* m) { m->image_place = {0, 1, 2, 3, 4, 5, 7, 6, 8, 9, 10, 11}; },
+       "image 6 shows place 7 before any image shows place 6"},
+      {"ExperiencesShort",
+       [](Map* m) {
+         m->experiences = {{"tour", "", "", ExperienceKind::kTour, 0, 11, 11}};
+       },
+       "the experiences cover 11 images of 12"},
+      {"ExperienceGap",
+       [](Map* m) {
+         m->experiences = {{"tour", "", "", ExperienceKind::kTour, 0, 6, 6},
+                           {"night", "", "", ExperienceKind::kRoute, 7, 5, 9}};
+       },
+       "experience 1 ('night') does not follow the one before it"},
+      {"SecondTour",
+       [](Map* m) {
+         m->experiences = {{"tour", "", "", ExperienceKind::kTour, 0, 6, 6},
+                           {"again", "", "", ExperienceKind::kTour, 6, 6, 6}};
+       },
+       "the first experience, and only it, is the tour"},
+      {"LookAlikesOfImagesNotPlaces",
+       [](Map* m) {
+         m->image_place = {0, 1, 2, 3, 4, 5, 0, 1, 2, 3, 4, 5};  // 6 places, 12 images
+         m->lookalike_offsets.assign(13, 0);
+       },
+       "look-alike lists do not match the places"},
   };
 }
 

@@ -283,6 +283,23 @@ void ExpectMapsEqual(const Map& a, const Map& b) {
   ExpectArraysEqual("lookalike_offsets", a.lookalike_offsets, b.lookalike_offsets);
   ExpectArraysEqual("lookalike_location", a.lookalike_location, b.lookalike_location);
   ExpectArraysEqual("lookalike_ratio", a.lookalike_ratio, b.lookalike_ratio);
+  ExpectArraysEqual("image_place", a.image_place, b.image_place);
+  ExpectArraysEqual("place_image", a.place_image, b.place_image);
+  ASSERT_EQ(a.experiences.size(), b.experiences.size());
+  for (size_t e = 0; e < a.experiences.size(); ++e) {
+    const Experience &x = a.experiences[e], &y = b.experiences[e];
+    EXPECT_EQ(x.name, y.name) << e;
+    EXPECT_EQ(x.source_dir, y.source_dir) << e;
+    EXPECT_EQ(x.created_utc, y.created_utc) << e;
+    EXPECT_EQ(x.kind, y.kind) << e;
+    EXPECT_EQ(x.first_image, y.first_image) << e;
+    EXPECT_EQ(x.num_images, y.num_images) << e;
+    EXPECT_EQ(x.walk_frames, y.walk_frames) << e;
+    EXPECT_EQ(x.calibration.valid, y.calibration.valid) << e;
+    EXPECT_EQ(x.calibration.samples, y.calibration.samples) << e;
+    EXPECT_EQ(x.calibration.off_map_distance, y.calibration.off_map_distance) << e;
+    EXPECT_EQ(x.calibration.off_map_spread, y.calibration.off_map_spread) << e;
+  }
   ExpectArraysEqual("local_mean_sqnorm", a.local_mean_sqnorm, b.local_mean_sqnorm);
   const PlaceIndex &p = a.place_index, &q = b.place_index;
   EXPECT_EQ(p.vocabulary.coarse, q.vocabulary.coarse);
