@@ -35,8 +35,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 RUNS = ROOT / "docs" / "runs"
 PAGE = ROOT / "docs" / "results.md"
-SUITES = ("accuracy", "distractors", "scale", "server", "latency", "sessions", "hostile", "auth",
-          "fleet", "experiments")
+SUITES = ("accuracy", "distractors", "scale", "experiences", "server", "latency", "sessions",
+          "hostile", "auth", "fleet", "experiments")
 # Plots a suite writes beside its JSON, kept with the run.
 PLOTS = {"scale": ("scale.png",), "experiments": ("eta_sweep.png", "eta_opt_vs_size.png")}
 
@@ -540,6 +540,31 @@ def hostile_section(run):
                         "peak RSS, MB", "server"], rows)
 
 
+def experiences_section(run):
+    out = ["## Experiences: maps that grow by walks", "", provenance(run), "",
+           "Walks added to the Gardens Point `day_left` map with `sceneloc-train --extend` "
+           "([experiences.md](experiences.md)); shipped settings, single frames, ±2; each beside "
+           "the same queries on the map without the walk. "
+           + ("Every target met." if run["all_met"] else "**Some targets are not met.**"), ""]
+    rows = []
+    for t in run["targets"]:
+        before = "–" if t["before"] is None else f3(t["before"])
+        rows.append([t["target"], t["goal"], before, f3(t["after"]), mark(t["met"])])
+    out += table(["target", "goal", "without the walk", "with it", ""], rows)
+    pooled, cost = run["ece_pooled"], run["cost_seconds"]
+    out += ["", f"Pooled ECE over those sets: with the walks {f3(pooled['extended']['ece'])} "
+            f"(floor {f3(pooled['extended']['ece_floor'])}, {pooled['extended']['answers']} "
+            f"answers), without them {f3(pooled['today']['ece'])} (floor "
+            f"{f3(pooled['today']['ece_floor'])}). Extending `day_left` by the 50 night frames "
+            f"took {cost['extend_median']:.2f} s against {cost['train_median']:.2f} s to train "
+            f"a map of those frames alone (medians of 3).", ""]
+    rows = [[name.split("+")[1], str(a["frames"]), str(a["placed_by_session"]), str(a["bridged"]),
+             str(a["recognised"]), str(a["added"]), str(a["within_2"])]
+            for name, a in run["alignment"].items()]
+    return out + table(["walk", "frames", "placed by the session", "bridged", "recognised",
+                        "added", "added within ±2"], rows)
+
+
 def latency_section(run):
     out = ["## Latency against the floor", "", provenance(run), "",
            f"Every stage of a JPEG request on the 200-location Gardens Point map (`day_right` "
@@ -644,7 +669,8 @@ def experiments_section(run):
 
 RENDER = {"accuracy": accuracy_section, "scale": scale_section, "server": server_section,
           "sessions": sessions_section, "hostile": hostile_section, "auth": auth_section, "latency": latency_section,
-          "fleet": fleet_section, "experiments": experiments_section}
+          "fleet": fleet_section, "experiments": experiments_section,
+          "experiences": experiences_section}
 
 # ---------------------------------------------------------------- README's headline figures
 

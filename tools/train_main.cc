@@ -1,5 +1,6 @@
-// sceneloc-train: turns a tour folder into a landmark map file.
+// sceneloc-train: turns a tour folder into a landmark map file, or adds a walk to one.
 //   sceneloc-train --tour DIR --out FILE [--config configs/train.yaml] [--threads N]
+//   sceneloc-train --extend MAP --tour DIR --out FILE [--new-ground] [--name NAME]
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -15,6 +16,7 @@
 #include "common/util/progress_printer.h"
 #include "common/util/timer.h"
 #include "common/util/version.h"
+#include "tools/train_extend.h"
 
 namespace {
 
@@ -142,7 +144,9 @@ int Upgrade(const std::string& in, const std::string& out) {
 int main(int argc, char** argv) {
   CLI::App app{"sceneloc-train: build a landmark map from a training tour"};
   app.set_version_flag("--version", std::string(sceneloc::Version()));
-  std::string tour_dir, out_path, config_path, spool_dir, upgrade_path;
+  std::string tour_dir, out_path, config_path, spool_dir, upgrade_path, extend_path, name;
+  std::string frames_csv;
+  bool new_ground = false;
   int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   int eta = -1;
   bool print_config = false;
@@ -158,6 +162,15 @@ int main(int argc, char** argv) {
   app.add_option("--upgrade", upgrade_path,
                  "instead of training, rewrite this map file in today's format at --out (older "
                  "formats load too, converted on every load)");
+  app.add_option("--extend", extend_path,
+                 "instead of training, add the walk in --tour to this map, written at --out: "
+                 "another experience of the route (aligned to its places), or new ground");
+  app.add_flag("--new-ground", new_ground,
+               "with --extend: the walk covers ground the map does not; each frame a new place");
+  app.add_option("--name", name, "with --extend: the experience's name (default: the folder's)");
+  app.add_option("--frames-csv", frames_csv,
+                 "with --extend: write what became of each walk frame (its place, how sure, "
+                 "recognised or added) as CSV");
   app.add_flag("--print-config", print_config,
                "print the settings in effect (defaults, --config, --eta) as a documented "
                "settings file, and exit");
@@ -195,12 +208,27 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "sceneloc-train: %s\n", s.message().c_str());
     return 2;
   }
-  sceneloc::Stopwatch watch;
-  sceneloc::ProgressPrinter progress;
   if (spool_dir.empty()) {
     spool_dir = std::filesystem::path(out_path).parent_path().string();
     if (spool_dir.empty()) spool_dir = ".";
   }
+  if (!extend_path.empty()) {
+    if (!config_path.empty() || eta >= 0) {
+      std::fprintf(stderr,
+                   "sceneloc-train: --extend trains the walk with the map's own settings; it "
+                   "takes no --config or --eta\n");
+      return 2;
+    }
+    return sceneloc::ExtendCommand(
+        {extend_path, tour_dir, out_path, name, spool_dir, frames_csv, new_ground, threads});
+  }
+  if (new_ground || !name.empty() || !frames_csv.empty()) {
+    std::fprintf(stderr,
+                 "sceneloc-train: --new-ground, --name and --frames-csv go with --extend\n");
+    return 2;
+  }
+  sceneloc::Stopwatch watch;
+  sceneloc::ProgressPrinter progress;
   auto result =
       sceneloc::TrainFromFolder(tour_dir, options, threads, std::ref(progress), spool_dir);
   if (!result.ok()) {

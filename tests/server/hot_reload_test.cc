@@ -14,8 +14,11 @@
 
 #include "client/client.h"
 #include "common/map/map_io.h"
+#include "common/synthetic/tour_generator.h"
+#include "common/training/extend.h"
 #include "tests/server/server_call_support.h"
 #include "tests/server/server_test_support.h"
+#include "tests/support/tour_features.h"
 
 namespace sceneloc {
 namespace {
@@ -203,6 +206,50 @@ TEST_F(HotReloadTest, NewFileBecomesANewMap) {
   ASSERT_TRUE(reply.ok()) << reply.status().ToString();
   EXPECT_EQ(reply->locations(0).index(), 4);
   EXPECT_EQ(reply->map().name(), "annex");
+}
+
+// The map replaced under load by itself extended with a walk of another street as new ground
+// (sceneloc-train --extend --new-ground): no request fails, the new generation answers the
+// new street's JPEGs with its new places (after the route's) and the route's with the route's.
+TEST_F(HotReloadTest, AnExtendedMapIsReloadedAndAnswersWithPlaces) {
+  Load load(server_.endpoint, 2);
+  ASSERT_TRUE(load.WaitForReplies(1, 1)) << load.first_failure();
+  auto map = LoadMap(test::TestMapPath());
+  ASSERT_TRUE(map.ok());
+  TourOptions street;
+  street.num_locations = kTestTourLocations;
+  street.seed = 7;
+  const ExtractionTarget frame = map->QueryTarget(street.image_width, street.image_height);
+  const std::vector<FeatureSet> walk =
+      test::ExtractTourPass(street, kTrainingPass, map->options.extractor, &frame);
+  std::vector<std::string> names;
+  for (int i = 0; i < kTestTourLocations; ++i) names.push_back("street7_" + TourImageName(i));
+  ExtendOptions options;
+  options.name = "street 7";
+  options.new_ground = true;
+  auto extended = ExtendMap(*map, TourInMemory(walk), names, options, 1, nullptr);
+  ASSERT_TRUE(extended.ok()) << extended.status().ToString();
+  ASSERT_TRUE(SaveMap(extended->map, dir_.MapPath()).ok());
+  EXPECT_TRUE(load.WaitForReplies(2, 2)) << "replies never named generation 2";
+  load.Stop();
+  EXPECT_EQ(load.failures(), 0) << load.first_failure();
+
+  auto jpegs = RenderTourJpegs(street, kTrainingPass);
+  ASSERT_TRUE(jpegs.ok());
+  for (const int i : {2, 8}) {
+    auto reply = client_->Localise(kTestMapName, (*jpegs)[static_cast<size_t>(i)]);
+    ASSERT_TRUE(reply.ok()) << reply.status().ToString();
+    EXPECT_EQ(reply->map().generation(), 2u);
+    EXPECT_NEAR(reply->locations(0).index(), kTestTourLocations + i, 1);
+    EXPECT_EQ(reply->locations(0).image_name().rfind("street7_", 0), 0u)
+        << reply->locations(0).image_name();
+    auto route = client_->Localise(kTestMapName, test::TourJpegs()[static_cast<size_t>(i)]);
+    ASSERT_TRUE(route.ok()) << route.status().ToString();
+    EXPECT_EQ(route->locations(0).index(), i);
+  }
+  auto maps = client_->ListMaps();
+  ASSERT_TRUE(maps.ok());
+  EXPECT_EQ(maps->maps(0).num_locations(), 2 * kTestTourLocations);
 }
 
 // A JPEG of tour location `i` scaled up to `width` pixels wide: slow to extract.

@@ -220,6 +220,45 @@ TEST_F(CliTest, UpgradeRewritesAnOlderMap) {
   EXPECT_FALSE(fs::exists(bad));
 }
 
+// --extend adds a walk to a map as a user runs it: the summary says what it added, the new
+// file holds two walks, and what it refuses (an older format, options that do not go with it,
+// an --out it cannot write) it refuses with one line and no file.
+TEST_F(CliTest, ExtendAddsAWalkAndRefusesWhatItCannotDo) {
+  const std::string map = (dir_ / "to_extend.scnl").string();
+  ASSERT_EQ(RunCommand(Train((dir_ / "tour").string(), map)).exit_code, 0);
+  const std::string out = (dir_ / "extended.scnl").string();
+  const std::string csv = (dir_ / "extended.csv").string();
+  const std::string extend = std::string(SCENELOC_TRAIN_BIN) + " --extend '";
+  RunResult r = RunCommand(extend + map + "' --tour '" + (dir_ / "test").string() + "' --out '" +
+                           out + "' --new-ground --name annex --frames-csv '" + csv + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("with 'annex' (new ground)"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("8 new places"), std::string::npos) << r.output;
+  auto extended = LoadMap(out);
+  ASSERT_TRUE(extended.ok()) << extended.status().ToString();
+  EXPECT_EQ(extended->num_places(), 16);
+  ASSERT_EQ(extended->experiences.size(), 2u);
+  EXPECT_EQ(extended->experiences[1].name, "annex");
+  std::ifstream rows(csv);
+  EXPECT_EQ(
+      std::count(std::istreambuf_iterator<char>(rows), std::istreambuf_iterator<char>(), '\n'),
+      9);  // a header and one row a frame
+
+  const std::string bad = (dir_ / "not_extended.scnl").string();
+  ExpectOneLineError(RunCommand(extend + SCENELOC_TEST_DATA + "/v5_map.scnl' --tour '" +
+                                (dir_ / "test").string() + "' --out '" + bad + "'"),
+                     {"v5_map.scnl", "format 5", "--upgrade"});
+  ExpectOneLineError(RunCommand(extend + map + "' --tour '" + (dir_ / "test").string() +
+                                "' --out '" + bad + "' --eta 5"),
+                     {"--extend", "--eta"});
+  ExpectOneLineError(RunCommand(extend + map + "' --tour '" + (dir_ / "test").string() +
+                                "' --out '" + (dir_ / "no_such_dir" / "m.scnl").string() + "'"),
+                     {"no_such_dir", "does not exist"});
+  ExpectOneLineError(RunCommand(Train((dir_ / "tour").string(), bad, "--new-ground")),
+                     {"--new-ground", "--extend"});
+  EXPECT_FALSE(fs::exists(bad));
+}
+
 // sceneloc-eval on query folders it cannot use: a non-image file, an empty folder, and a
 // query with no tour image of its name.
 TEST_F(CliTest, EvalRefusesBadQueryFolders) {

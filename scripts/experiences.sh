@@ -1,0 +1,85 @@
+#!/usr/bin/env bash
+# Maps that grow by walks (sceneloc-train --extend; docs/experiences.md): every target of the
+# experiences issue in one run, on the development data, shipped settings, single frames,
+# each beside the same queries against the map without the walk:
+#   - Gardens Point day_left + the even night_right frames 000-098: the odd night frames
+#     001-099, and day_right 000-099;
+#   - day_left + day_right 000-099 (another viewpoint): night_right 000-099;
+#   - how many of each added walk's frames were aligned within +-2 of their true place
+#     (file-name truth, used only to score);
+#   - day_left + the corridor's ref as new ground: the corridor queries against the corridor
+#     map alone, and day_right 000-099 against day_left alone;
+#   - the confidence's ECE pooled over those sets on the extended maps, beside the same on the
+#     maps without the walks, each with its sampling floor;
+#   - the cost: extending day_left by the 50 night frames against training a map of those 50
+#     frames from scratch (median of 3 runs each, one after the other).
+# Writes OUT/experiences.json (for scripts/results_page.py record experiences) and prints a
+# summary. About 3 minutes on 2 cores.
+# Usage: scripts/experiences.sh [OUT_DIR] [DATA_DIR]
+set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+out="$(mkdir -p "${1:-$root/bench-out/experiences}" && cd "${1:-$root/bench-out/experiences}" && pwd)"
+data="$(cd "${2:-$root/../shared/data}" && pwd)"
+gp="$data/gardens_point"
+corridor="$data/corridor"
+build="$root/build"
+train="$build/tools/sceneloc-train"
+eval_bin="$build/tools/sceneloc-eval"
+for d in "$gp/day_left" "$gp/day_right" "$gp/night_right" "$corridor/ref" "$corridor/query"; do
+  [[ -d "$d" ]] || { echo "${0##*/}: $d is needed" >&2; exit 1; }
+done
+bash "$root/scripts/build.sh" >/dev/null
+
+# Folders of links: the frames a target names, under their own names.
+pick() {  # pick NAME SOURCE FIRST STEP LAST
+  local dir="$out/walks/$1"
+  rm -rf "$dir" && mkdir -p "$dir"
+  for ((i = $3; i <= $5; i += $4)); do
+    local f
+    f="$(printf 'Image%03d.jpg' "$i")"
+    ln -s "$2/$f" "$dir/$f"
+  done
+}
+pick night_even "$gp/night_right" 0 2 98
+pick night_odd "$gp/night_right" 1 2 99
+pick night_100 "$gp/night_right" 0 1 99
+pick day_right_100 "$gp/day_right" 0 1 99
+walks="$out/walks"
+maps="$out/maps"
+mkdir -p "$maps" "$out/evals" "$out/frames"
+
+"$train" --tour "$gp/day_left" --out "$maps/day_left.scnl" >"$out/train_day_left.txt"
+"$train" --tour "$corridor/ref" --out "$maps/corridor.scnl" >"$out/train_corridor.txt"
+extend() {  # extend NAME WALK [FLAGS]
+  local name=$1 walk=$2
+  shift 2
+  "$train" --extend "$maps/day_left.scnl" --tour "$walk" --out "$maps/$name.scnl" \
+    --frames-csv "$out/frames/$name.csv" "$@" >"$out/extend_$name.txt"
+}
+extend day_left+night_even "$walks/night_even"
+extend day_left+day_right "$walks/day_right_100"
+extend day_left+corridor "$corridor/ref" --new-ground
+evaluate() {  # evaluate MAP QUERIES NAME
+  "$eval_bin" --map "$maps/$1.scnl" --queries "$2" --json "$out/evals/$3.json" >/dev/null
+}
+evaluate day_left "$walks/night_odd" night_odd@day_left
+evaluate day_left+night_even "$walks/night_odd" night_odd@extended
+evaluate day_left "$walks/day_right_100" day_right@day_left
+evaluate day_left+night_even "$walks/day_right_100" day_right@extended_night
+evaluate day_left "$walks/night_100" night_100@day_left
+evaluate day_left+day_right "$walks/night_100" night_100@extended
+evaluate corridor "$corridor/query" corridor@corridor
+evaluate day_left+corridor "$corridor/query" corridor@extended
+evaluate day_left+corridor "$walks/day_right_100" day_right@extended_corridor
+
+# The cost, one run after the other (never two timings at once).
+: >"$out/cost.txt"
+for _ in 1 2 3; do
+  /usr/bin/time -f "train %e" "$train" --tour "$walks/night_even" --out "$out/scratch.scnl" \
+    2>>"$out/cost.txt" >/dev/null
+  /usr/bin/time -f "extend %e" "$train" --extend "$maps/day_left.scnl" --tour "$walks/night_even" \
+    --out "$out/scratch.scnl" 2>>"$out/cost.txt" >/dev/null
+done
+rm -f "$out/scratch.scnl"
+
+/usr/bin/python3 "$root/scripts/experiences_summary.py" "$out" "$("$train" --version)"
