@@ -309,23 +309,30 @@ HolisticCodes CodeHolistic(const std::vector<uint8_t>& holistic, const HolisticG
       codebook.row(c) = sample.row(c % static_cast<int>(samples));
   }
   h.codebook.assign(codebook.data(), codebook.data() + codebook.size());
-  h.codes.resize(cells);
+  h.codes = CodeCells(holistic, 0, cells, h, pool);
+  return h;
+}
+
+std::vector<uint8_t> CodeCells(const std::vector<uint8_t>& holistic, size_t first, size_t count,
+                               const HolisticCodes& h, ThreadPool* pool) {
+  const Eigen::Map<const RowMatrix> codebook(h.codebook.data(), kHolisticCodes, h.bins);
+  std::vector<uint8_t> codes(count);
   constexpr size_t kCellsPerTask = 16384;
   const auto code = [&](size_t first_task, size_t end_task) {
     for (size_t t = first_task; t < end_task; ++t) {
-      const size_t begin = t * kCellsPerTask, end = std::min(cells, begin + kCellsPerTask);
+      const size_t begin = t * kCellsPerTask, end = std::min(count, begin + kCellsPerTask);
       const std::vector<uint32_t> nearest =
-          Nearest(CellValues(holistic, grid.bins, begin, end), codebook);
-      for (size_t c = begin; c < end; ++c) h.codes[c] = static_cast<uint8_t>(nearest[c - begin]);
+          Nearest(CellValues(holistic, h.bins, first + begin, first + end), codebook);
+      for (size_t c = begin; c < end; ++c) codes[c] = static_cast<uint8_t>(nearest[c - begin]);
     }
   };
-  const size_t tasks = (cells + kCellsPerTask - 1) / kCellsPerTask;
+  const size_t tasks = (count + kCellsPerTask - 1) / kCellsPerTask;
   if (pool != nullptr) {
     pool->ParallelFor(tasks, 1, code);
   } else {
     code(0, tasks);
   }
-  return h;
+  return codes;
 }
 
 std::vector<uint32_t> AssignCells(const Vocabulary& v, const DescriptorMatrix& descriptors) {

@@ -75,6 +75,13 @@ RowMatrix KMeans(const RowMatrix& x, int k, int iterations, std::mt19937* rng);
 HolisticCodes CodeHolistic(const std::vector<uint8_t>& holistic, const HolisticGrid& grid, size_t n,
                            ThreadPool* pool);
 
+// The codes of cells [first, first + count) of `holistic` (unit bytes, cell after cell) on the
+// codebook of `codes` (its bins and codebook; its codes are not read): the nearest code of
+// each, as CodeHolistic codes them. A map extended by walks codes its new images so, on the
+// codebook its tour learnt. REQUIRES: !codes.empty(), the cells within `holistic`.
+std::vector<uint8_t> CodeCells(const std::vector<uint8_t>& holistic, size_t first, size_t count,
+                               const HolisticCodes& codes, ThreadPool* pool);
+
 struct PlaceIndex {
   Vocabulary vocabulary;
   std::vector<uint32_t> landmark_word;  // one per landmark

@@ -198,9 +198,9 @@ void AppendImages(const Map& walk_map, const Added& added, Map* map, size_t* lan
 }
 
 // The place index of a map that has one, kept current: the added landmarks take their words
-// from the map's vocabulary (not learnt again), and the holistic codes are made again over
-// every image (a bounded sample learns the codebook).
-void ExtendPlaceIndex(size_t first_landmark, ThreadPool* pool, Map* map) {
+// from the map's vocabulary and the added images' cells their codes from its codebook (neither
+// is learnt again: a walk is a small part of the map, and the cost stays the walk's).
+void ExtendPlaceIndex(size_t first_landmark, size_t first_image, ThreadPool* pool, Map* map) {
   PlaceIndex& index = map->place_index;
   if (index.empty()) return;
   const Eigen::Index rows = map->local_mean.rows() - Eigen::Index(first_landmark);
@@ -209,9 +209,12 @@ void ExtendPlaceIndex(size_t first_landmark, ThreadPool* pool, Map* map) {
     const std::vector<uint32_t> words = AssignWords(index.vocabulary, means);
     index.landmark_word.insert(index.landmark_word.end(), words.begin(), words.end());
   }
-  if (map->has_holistic()) {
-    index.holistic = CodeHolistic(map->holistic, map->holistic_grid,
-                                  static_cast<size_t>(map->num_images()), pool);
+  if (map->has_holistic() && !index.holistic.empty()) {
+    const size_t cells = static_cast<size_t>(map->holistic_grid.cells());
+    const size_t count = (static_cast<size_t>(map->num_images()) - first_image) * cells;
+    const std::vector<uint8_t> codes =
+        CodeCells(map->holistic, first_image * cells, count, index.holistic, pool);
+    index.holistic.codes.insert(index.holistic.codes.end(), codes.begin(), codes.end());
   }
 }
 
@@ -309,6 +312,7 @@ StatusOr<ExtendResult> ExtendMap(const Map& map, const TourFeatures& walk,
   Map& out = result.map;
   out = map;
   const size_t first_landmark = static_cast<size_t>(out.num_landmarks());
+  const size_t first_image = static_cast<size_t>(out.num_images());
   if (out.experiences.empty()) {
     const auto images = static_cast<uint32_t>(out.num_images());
     out.experiences.push_back({"tour", out.provenance.tour_dir, out.provenance.created_utc,
@@ -330,7 +334,7 @@ StatusOr<ExtendResult> ExtendMap(const Map& map, const TourFeatures& walk,
       out.lookalike_offsets.push_back(out.lookalike_offsets.back());
     }
   }
-  ExtendPlaceIndex(first_landmark, &pool, &out);
+  ExtendPlaceIndex(first_landmark, first_image, &pool, &out);
   // The off-map level is read from every image's holistic descriptor, the walk's too; each
   // walk has its own besides (confidence.h).
   CalibrateMap(&out, &pool);
