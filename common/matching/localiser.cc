@@ -13,6 +13,7 @@
 #include "common/matching/neighbourhood.h"
 #include "common/matching/place_search.h"
 #include "common/matching/verification.h"
+#include "common/matching/walks.h"
 #include "common/util/timer.h"
 
 namespace sceneloc {
@@ -175,41 +176,6 @@ void RankAndAssess(const Map& map, const MatchOptions& options,
       result->confidence >= options.min_confidence ? Decision::kLocalised : Decision::kUnknown;
 }
 
-// Places: a map extended by walks (map.h experiences) shows a place in several images,
-// scored and verified one by one up to here; from here on the pipeline reads places. Each
-// candidate names its place, and of a place's verified images the best by fused evidence
-// speaks for it (earlier as selected on a tie). A map of one walk is left as it is.
-void PoolPlaces(const Map& map, const MatchOptions& options,
-                std::vector<CandidateEvidence>* candidates) {
-  for (CandidateEvidence& c : *candidates) c.image = c.location;
-  if (map.image_place.empty()) return;
-  std::vector<int> kept(static_cast<size_t>(map.num_places()), -1);
-  std::vector<CandidateEvidence> pooled;
-  for (CandidateEvidence& c : *candidates) {
-    c.location = map.PlaceOf(c.image);
-    int& k = kept[static_cast<size_t>(c.location)];
-    if (k < 0) {
-      k = static_cast<int>(pooled.size());
-      pooled.push_back(c);
-    } else if (FuseEvidence(c, options) > FuseEvidence(pooled[static_cast<size_t>(k)], options)) {
-      pooled[static_cast<size_t>(k)] = c;
-    }
-  }
-  *candidates = std::move(pooled);
-}
-
-// Per place, the largest of its images' `values` (those of a map of one walk as they are).
-std::vector<float> PlaceMaxima(const Map& map, const std::vector<float>& values) {
-  if (map.image_place.empty() || values.empty()) return values;
-  std::vector<float> out(static_cast<size_t>(map.num_places()),
-                         -std::numeric_limits<float>::infinity());
-  for (size_t i = 0; i < values.size(); ++i) {
-    float& v = out[map.image_place[i]];
-    v = std::max(v, values[i]);
-  }
-  return out;
-}
-
 // Verifies every candidate (one RANSAC each, spread over the pool).
 void VerifyCandidates(const FeatureSet& features, const Map& map, const LandmarkScope& scope,
                       const FrameScores& scores, const MatchOptions& options, ThreadPool* pool,
@@ -264,73 +230,6 @@ struct QueryHolistic {
 // confidence was calibrated on, whatever the map's size. (Against an even sample of a big
 // map, its typical place, the places a query resembles all stand out and the confidence
 // rises with the map: docs/history.md "Maps that grow".)
-// RobustZ of `distance` (every image's), each walk of the map (map.h experiences) read against
-// the distances of its own images among `reference` (images; null: every image): a night walk's
-// images all lie further from a day query than the day's do, and new ground's from a frame of
-// the route, so against one pooled reference a walk's places would stand out, or not, as a
-// block. Read each against its own, as a map of that walk alone would read it. A walk with
-// fewer than kMinOwnReference images in the reference is read against the whole reference.
-std::vector<float> WalkZ(const Map& map, const std::vector<float>& distance,
-                         const std::vector<int>* reference) {
-  constexpr size_t kMinOwnReference = 20;
-  std::vector<float> all;
-  if (reference != nullptr) {
-    for (const int i : *reference) all.push_back(distance[static_cast<size_t>(i)]);
-  }
-  const std::vector<float>& pooled = reference != nullptr ? all : distance;
-  if (map.experiences.size() < 2 || distance.size() != static_cast<size_t>(map.num_images())) {
-    return RobustZ(distance, pooled);  // one walk, or no holistic evidence
-  }
-  std::vector<float> z(distance.size());
-  std::vector<int> walk_of(distance.size(), 0);
-  for (size_t e = 0; e < map.experiences.size(); ++e) {
-    const Experience& x = map.experiences[e];
-    for (uint32_t i = x.first_image; i < x.first_image + x.num_images; ++i) walk_of[i] = int(e);
-  }
-  for (size_t e = 0; e < map.experiences.size(); ++e) {
-    const Experience& x = map.experiences[e];
-    std::vector<float> own, values;
-    if (reference != nullptr) {
-      for (const int i : *reference) {
-        if (walk_of[static_cast<size_t>(i)] == int(e)) own.push_back(distance[size_t(i)]);
-      }
-    } else {
-      own.assign(distance.begin() + x.first_image, distance.begin() + x.first_image + x.num_images);
-    }
-    values.assign(distance.begin() + x.first_image,
-                  distance.begin() + x.first_image + x.num_images);
-    const std::vector<float> walk = RobustZ(values, own.size() >= kMinOwnReference ? own : pooled);
-    std::copy(walk.begin(), walk.end(), z.begin() + x.first_image);
-  }
-  return z;
-}
-
-// A map of walks over different ground (new ground, map.h experiences): each image's
-// z-score is weighed by the probability that the query shows its walk's ground at all, from
-// the query's nearest image of that walk against the walk's own off-map level
-// (InMapProbability): its posterior weight, exp(z / T) at the map's temperature T, is
-// multiplied by that probability (floored at kWalkFloor). Without it a frame of one walk's
-// ground meets the other walk's places at their chance level, read against their own walk
-// (WalkZ), as if it were one of theirs. A map of one walk, or of walks without their own
-// level, is left as it is.
-void WeighByWalk(const Map& map, const std::vector<float>& distance, std::vector<float>* z) {
-  constexpr double kWalkFloor = 1e-4;
-  if (map.experiences.size() < 2 || distance.size() != static_cast<size_t>(map.num_images())) {
-    return;
-  }
-  for (const Experience& x : map.experiences) {
-    if (!x.calibration.valid) return;
-  }
-  const double t = map.options.confidence_temperature;
-  for (const Experience& x : map.experiences) {
-    const auto begin = distance.begin() + x.first_image;
-    const float nearest = *std::min_element(begin, begin + x.num_images);
-    const double p = std::max(kWalkFloor, InMapProbability(map, x.calibration, nearest));
-    const auto weight = static_cast<float>(t * std::log(p));
-    for (uint32_t i = x.first_image; i < x.first_image + x.num_images; ++i) (*z)[i] += weight;
-  }
-}
-
 QueryHolistic MeasureHolistic(const FeatureSet& features, const Map& map,
                               const LandmarkScope& scope, const PlaceSearch* search,
                               ThreadPool* pool) {
