@@ -21,24 +21,31 @@ std::vector<float> WalkZ(const Map& map, const std::vector<float>& distance,
     return RobustZ(distance, pooled);  // one walk, or no holistic evidence
   }
   std::vector<float> z(distance.size());
-  std::vector<int> walk_of(distance.size(), 0);
-  for (size_t e = 0; e < map.experiences.size(); ++e) {
-    const Experience& x = map.experiences[e];
-    for (uint32_t i = x.first_image; i < x.first_image + x.num_images; ++i) walk_of[i] = int(e);
+  // The walk of each reference image, for reading each walk against its own.
+  std::vector<int> walk_of;
+  if (reference != nullptr) {
+    walk_of.assign(distance.size(), 0);
+    for (size_t e = 0; e < map.experiences.size(); ++e) {
+      const Experience& x = map.experiences[e];
+      std::fill(walk_of.begin() + x.first_image, walk_of.begin() + x.first_image + x.num_images,
+                static_cast<int>(e));
+    }
   }
   for (size_t e = 0; e < map.experiences.size(); ++e) {
     const Experience& x = map.experiences[e];
-    std::vector<float> own, values;
+    const std::vector<float> values(distance.begin() + x.first_image,
+                                    distance.begin() + x.first_image + x.num_images);
+    std::vector<float> own;
     if (reference != nullptr) {
       for (const int i : *reference) {
-        if (walk_of[static_cast<size_t>(i)] == int(e)) own.push_back(distance[size_t(i)]);
+        if (walk_of[static_cast<size_t>(i)] == static_cast<int>(e)) {
+          own.push_back(distance[static_cast<size_t>(i)]);
+        }
       }
-    } else {
-      own.assign(distance.begin() + x.first_image, distance.begin() + x.first_image + x.num_images);
     }
-    values.assign(distance.begin() + x.first_image,
-                  distance.begin() + x.first_image + x.num_images);
-    const std::vector<float> walk = RobustZ(values, own.size() >= kMinOwnReference ? own : pooled);
+    const std::vector<float>& own_reference = reference != nullptr ? own : values;
+    const std::vector<float> walk =
+        RobustZ(values, own_reference.size() >= kMinOwnReference ? own_reference : pooled);
     std::copy(walk.begin(), walk.end(), z.begin() + x.first_image);
   }
   return z;
