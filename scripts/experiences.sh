@@ -12,9 +12,12 @@
 #   - the confidence's ECE pooled over those sets on the extended maps, beside the same on the
 #     maps without the walks, each with its sampling floor;
 #   - the cost: extending day_left by the 50 night frames against training a map of those 50
-#     frames from scratch (median of 3 runs each, one after the other).
+#     frames from scratch (median of 3 runs each, one after the other);
+#   - the same sets again with the confidence's three fitted constants (temperature, in-map
+#     slope and offset) fitted without each set's family, as docs/runs/accuracy.json's
+#     leave-one-set-out fit has them: ECE beside its floor, precision at 0.8, gross errors.
 # Writes OUT/experiences.json (for scripts/results_page.py record experiences) and prints a
-# summary. About 3 minutes on 2 cores.
+# summary. About 5 minutes on 2 cores.
 # Usage: scripts/experiences.sh [OUT_DIR] [DATA_DIR]
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -71,6 +74,53 @@ evaluate day_left+day_right "$walks/night_100" night_100@extended
 evaluate corridor "$corridor/query" corridor@corridor
 evaluate day_left+corridor "$corridor/query" corridor@extended
 evaluate day_left+corridor "$walks/day_right_100" day_right@extended_corridor
+
+# Held out: each set read on maps whose confidence constants were fitted without its family
+# (gp_day, gp_night_*, corridor in the accuracy suite's leave-one-set-out fit).
+held="$out/held_out"
+mkdir -p "$held/maps" "$held/evals"
+/usr/bin/python3 - "$root/docs/runs/accuracy.json" "$root/configs/train.yaml" "$held" <<'PY'
+import json, re, sys
+fits = {s["set"]: s["fitted"] for s in json.load(open(sys.argv[1]))["leave_one_out"]["sets"]}
+base = open(sys.argv[2]).read()
+for family, set_name in (("day", "gp_day"), ("night", "gp_night_other"), ("corridor", "corridor")):
+    f = fits[set_name]
+    text = base
+    for key, value in (("confidence_temperature", f["temperature"]),
+                       ("map_evidence_slope", f["slope"]), ("map_evidence_offset", f["offset"])):
+        text, n = re.subn(rf"(\n\s*{key}:)\s*[-0-9.e]+", rf"\g<1> {value!r}", text)
+        assert n == 1, key
+    open(f"{sys.argv[3]}/{family}.yaml", "w").write(text)
+PY
+for family in day night corridor; do
+  "$train" --tour "$gp/day_left" --out "$held/maps/day_left_$family.scnl" \
+    --config "$held/$family.yaml" >/dev/null
+done
+"$train" --tour "$corridor/ref" --out "$held/maps/corridor.scnl" --config "$held/corridor.yaml" \
+  >/dev/null
+held_extend() {  # held_extend NAME FAMILY WALK [FLAGS]
+  local name=$1 family=$2 walk=$3
+  shift 3
+  "$train" --extend "$held/maps/day_left_$family.scnl" --tour "$walk" --out "$held/maps/$name.scnl" \
+    "$@" >/dev/null
+}
+held_extend night_even@night night "$walks/night_even"
+held_extend night_even@day day "$walks/night_even"
+held_extend day_right@night night "$walks/day_right_100"
+held_extend corridor@corridor corridor "$corridor/ref" --new-ground
+held_extend corridor@day day "$corridor/ref" --new-ground
+held_evaluate() {  # held_evaluate MAP QUERIES NAME
+  "$eval_bin" --map "$held/maps/$1.scnl" --queries "$2" --json "$held/evals/$3.json" >/dev/null
+}
+held_evaluate day_left_night "$walks/night_odd" night_odd@day_left
+held_evaluate night_even@night "$walks/night_odd" night_odd@extended
+held_evaluate day_left_day "$walks/day_right_100" day_right@day_left
+held_evaluate night_even@day "$walks/day_right_100" day_right@extended_night
+held_evaluate day_left_night "$walks/night_100" night_100@day_left
+held_evaluate day_right@night "$walks/night_100" night_100@extended
+held_evaluate corridor "$corridor/query" corridor@corridor
+held_evaluate corridor@corridor "$corridor/query" corridor@extended
+held_evaluate corridor@day "$walks/day_right_100" day_right@extended_corridor
 
 # The cost, one run after the other (never two timings at once).
 : >"$out/cost.txt"

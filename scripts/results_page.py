@@ -561,8 +561,26 @@ def experiences_section(run):
     rows = [[name.split("+")[1], str(a["frames"]), str(a["placed_by_session"]), str(a["bridged"]),
              str(a["recognised"]), str(a["added"]), str(a["within_2"])]
             for name, a in run["alignment"].items()]
-    return out + table(["walk", "frames", "placed by the session", "bridged", "recognised",
-                        "added", "added within ±2"], rows)
+    out += table(["walk", "frames", "placed by the session", "bridged", "recognised",
+                  "added", "added within ±2"], rows)
+    if "held_out" not in run:
+        return out
+    held, pooled = run["held_out"], run["held_out_pooled"]
+    out += ["", "Held out: each set again on maps whose confidence constants (temperature, in-map "
+            "slope and offset) were fitted without its family, as the accuracy suite's "
+            "leave-one-set-out fit has them ([shipped constants] beside each). Pooled ECE with "
+            f"the walks {f3(pooled['extended']['ece'])} (floor "
+            f"{f3(pooled['extended']['ece_floor'])}), without them {f3(pooled['today']['ece'])} "
+            f"(floor {f3(pooled['today']['ece_floor'])}).", ""]
+    rows = []
+    for name, h in held.items():
+        shipped = run["sets"][name]
+        queries, on_map = name.split("@")
+        rows.append([queries, on_map.replace("_", " "), f2(h["within_2"]),
+                     f"{f3(h['ece'])} ({f3(h['ece_floor'])}) [{f3(shipped['ece'])}]",
+                     f"{f3(h['precision'])} [{f3(shipped['precision'])}]", str(h["gross_99"])])
+    return out + table(["queries", "map", "±2", "ECE (floor) held out [shipped]",
+                        "precision at 0.8 held out [shipped]", "> 5 frames off at ≥ 0.99"], rows)
 
 
 def latency_section(run):
