@@ -198,6 +198,12 @@ class ZmqClient final : public Client {
     return Typed(std::move(request), &v1::Reply::stats);
   }
 
+  StatusOr<v1::KeptFramesReply> KeptFrames(const v1::KeptFramesRequest& kept) override {
+    v1::Request request;
+    *request.mutable_kept_frames() = kept;
+    return Typed(std::move(request), &v1::Reply::kept_frames);
+  }
+
  private:
   // Waits for the reply to `id` until the attempt's deadline; replies to other ids
   // (late answers to an abandoned attempt) are dropped. nullopt on timeout.
@@ -268,6 +274,7 @@ class RoutedClient final : public Client {
     std::string map;
     if (request.has_localise()) map = request.localise().map();
     if (request.has_reload_map()) map = request.reload_map().map();
+    if (request.has_kept_frames()) map = request.kept_frames().map();
     SCENELOC_ASSIGN_OR_RETURN(Client * client, map.empty() ? First() : For(map));
     return client->Call(std::move(request));
   }
@@ -304,6 +311,14 @@ class RoutedClient final : public Client {
   StatusOr<v1::StatsReply> Stats() override {
     SCENELOC_ASSIGN_OR_RETURN(Client * client, First());
     return client->Stats();
+  }
+
+  // Asked of the broker serving the map (the first broker for every map); brokers' workers
+  // refuse it, saying to read the worker's own folder.
+  StatusOr<v1::KeptFramesReply> KeptFrames(const v1::KeptFramesRequest& request) override {
+    SCENELOC_ASSIGN_OR_RETURN(Client * client,
+                              request.map().empty() ? First() : For(request.map()));
+    return client->KeptFrames(request);
   }
 
   int64_t overload_retries() const override { return Sum(&Client::overload_retries); }

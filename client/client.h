@@ -105,6 +105,9 @@ class Client {
   virtual StatusOr<v1::ListMapsReply> ListMaps() = 0;
   virtual StatusOr<v1::ReloadMapReply> Reload(const std::string& map) = 0;
   virtual StatusOr<v1::StatsReply> Stats() = 0;
+  // The frames the server kept where its maps failed (proto KeptFramesRequest): list, fetch
+  // a page of a run, or delete a run. Needs an admin key on a server with auth.enabled.
+  virtual StatusOr<v1::KeptFramesReply> KeptFrames(const v1::KeptFramesRequest& request) = 0;
 
   // OVERLOADED replies this client waited out and asked again after, since it was made.
   virtual int64_t overload_retries() const = 0;

@@ -8,6 +8,8 @@
 //   sceneloc bench --server EP --map NAME --clients N --duration S [--features] [--sessions]
 //                  [--json OUT] DIR
 //   sceneloc keygen NAME [--dir DIR] [--force]   a CURVE key pair: NAME.key and NAME.pub
+//   sceneloc frames list|fetch|delete --server EP [--map NAME] [--run RUN] [--out DIR]
+//                  the frames the server kept where its maps failed (client/frames_command.h)
 // Every command that talks to a server takes --key FILE --server-key FILE when the server
 // runs with auth.enabled (docs/security.md).
 // Exit status: 0 when every request was answered OK, 1 when any got an error reply or
@@ -21,6 +23,7 @@
 #include "client/bench_command.h"
 #include "client/client.h"
 #include "client/client_extractor.h"
+#include "client/frames_command.h"
 #include "common/config/config.h"
 #include "common/features/extractor.h"
 #include "common/keys/keys.h"
@@ -248,6 +251,7 @@ struct CommandLine {
   sceneloc::BenchArgs bench_args;
   std::string key_name, key_dir = ".";
   bool force = false;
+  sceneloc::FramesArgs frames;
 };
 
 // The subcommands, to ask which one was given.
@@ -259,6 +263,7 @@ struct Commands {
   CLI::App* stats;
   CLI::App* bench;
   CLI::App* keygen;
+  CLI::App* frames;
 };
 
 CLI::App* AddLocalise(CLI::App* app, CommandLine* c) {
@@ -382,20 +387,28 @@ Commands AddCommands(CLI::App* app, CommandLine* c) {
   cmd.maps = app->add_subcommand("maps", "list the server's maps");
   cmd.reload = app->add_subcommand("reload", "reload a map from the server's maps folder");
   cmd.stats = app->add_subcommand("stats", "the server's counters");
-  for (CLI::App* sub : {cmd.maps, cmd.reload, cmd.stats}) {
+  cmd.frames = app->add_subcommand(
+      "frames", "frames the server kept where its maps failed: list, fetch or delete runs");
+  for (CLI::App* sub : {cmd.maps, cmd.reload, cmd.stats, cmd.frames}) {
     sub->add_option("--server", c->server, "server endpoint")->required();
     sub->add_option("--timeout-ms", c->timeout_ms, "per attempt");
   }
-  for (CLI::App* sub : {cmd.localise, cmd.maps, cmd.reload, cmd.stats}) {
+  for (CLI::App* sub : {cmd.localise, cmd.maps, cmd.reload, cmd.stats, cmd.frames}) {
     AddConnectionOptions(sub, c);
   }
+  cmd.frames->add_option("action", c->frames.action, "list, fetch or delete")
+      ->required()
+      ->check(CLI::IsMember({"list", "fetch", "delete"}));
+  cmd.frames->add_option("--map", c->frames.map, "map name (list: every map without it)");
+  cmd.frames->add_option("--run", c->frames.run, "one run (fetch: every run without it)");
+  cmd.frames->add_option("--out", c->frames.out, "fetch: folder to write the runs to");
   cmd.reload->add_option("--map", c->map, "map name")->required();
   cmd.bench = AddBench(app, &c->bench_args);
   cmd.keygen = AddKeygen(app, c);
   return cmd;
 }
 
-// The commands that talk to one server: localise, maps, reload, stats.
+// The commands that talk to one server: localise, maps, reload, stats, frames.
 int RunOnServer(const Commands& cmd, CommandLine* c) {
   auto client = Connect(c->server, c->timeout_ms, c->overload_wait_ms, c->keys);
   if (!client.ok()) return Error(client.status(), 2);
@@ -406,6 +419,7 @@ int RunOnServer(const Commands& cmd, CommandLine* c) {
   }
   if (cmd.maps->parsed()) return RunMaps(client->get());
   if (cmd.reload->parsed()) return RunReload(client->get(), c->map);
+  if (cmd.frames->parsed()) return sceneloc::RunFrames(client->get(), c->frames);
   return RunStats(client->get());
 }
 

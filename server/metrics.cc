@@ -74,6 +74,22 @@ std::vector<MetricFamily> Held(const ServerGauges& g, const MapRegistry& maps) {
                        {Value(static_cast<double>(g.session_bytes))}));
   out.push_back(Family("sceneloc_draining", "1 while the server shuts down", gauge,
                        {Value(g.draining ? 1 : 0)}));
+  if (g.keeps_frames) {
+    const KeepFramesCounts& k = g.kept;
+    out.push_back(Family("sceneloc_kept_frames_bytes", "Bytes of the frames kept (keep_frames)",
+                         gauge, {Value(static_cast<double>(k.bytes_used))}));
+    out.push_back(Family("sceneloc_kept_frames_quota_bytes", "keep_frames.quota_bytes", gauge,
+                         {Value(static_cast<double>(k.quota_bytes))}));
+    out.push_back(Family("sceneloc_kept_frames_total", "Frames kept since start", counter,
+                         {Value(static_cast<double>(k.kept))}));
+    out.push_back(
+        Family("sceneloc_kept_frames_dropped_total",
+               "Frames of failing sessions not kept: quota full, memory full, or the disk refused",
+               counter,
+               {Value(static_cast<double>(k.dropped_quota), {{"reason", "quota"}}),
+                Value(static_cast<double>(k.dropped_memory), {{"reason", "memory"}}),
+                Value(static_cast<double>(k.write_failures), {{"reason", "write"}})}));
+  }
   std::vector<ClientMetric> generation, locations, landmarks, bytes;
   const auto loaded = maps.List();
   for (const auto& map : loaded) {

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "proto/sceneloc.pb.h"
+#include "server/frame_keeper.h"
 #include "server/map_registry.h"
 
 namespace sceneloc {
@@ -27,13 +28,15 @@ namespace sceneloc {
 // What the server holds when scraped (filled by the server).
 struct ServerGauges {
   double uptime_s = 0;
-  size_t queue_depth = 0;    // requests waiting for a worker
-  uint64_t in_flight = 0;    // requests received and not yet answered
-  int workers = 0;           // server.threads
-  int busy_workers = 0;      // workers running a request now
-  size_t sessions = 0;       // live sessions
-  size_t session_bytes = 0;  // their memory
-  bool draining = false;     // shutting down
+  size_t queue_depth = 0;     // requests waiting for a worker
+  uint64_t in_flight = 0;     // requests received and not yet answered
+  int workers = 0;            // server.threads
+  int busy_workers = 0;       // workers running a request now
+  size_t sessions = 0;        // live sessions
+  size_t session_bytes = 0;   // their memory
+  bool draining = false;      // shutting down
+  bool keeps_frames = false;  // keep_frames.dir is set: `kept` holds its counts
+  KeepFramesCounts kept;
 };
 
 class Metrics {

@@ -17,6 +17,8 @@ const char* KindName(const v1::Request& r) {
       return "reload_map";
     case v1::Request::kStats:
       return "stats";
+    case v1::Request::kKeptFrames:
+      return "kept_frames";
     case v1::Request::KIND_NOT_SET:
       break;
   }

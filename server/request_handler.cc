@@ -189,13 +189,15 @@ void FillMapInfo(const LoadedMap& map, v1::MapInfo* info) {
 }
 
 RequestHandler::RequestHandler(const ServerOptions& options, MapRegistry* registry,
-                               ThreadPool* pool, const ServerStats* stats)
+                               ThreadPool* pool, const ServerStats* stats,
+                               std::unique_ptr<FrameKeeper> keeper)
     : options_(options),
       registry_(registry),
       pool_(pool),
       stats_(stats),
       decode_budget_(std::make_unique<MemoryBudget>(options.limits.max_decode_bytes)),
-      sessions_(std::make_unique<SessionStore>(options.sessions)) {}
+      sessions_(std::make_unique<SessionStore>(options.sessions)),
+      keeper_(std::move(keeper)) {}
 
 bool RequestHandler::IsCheap(const v1::Request& request) {
   return request.kind_case() == v1::Request::kStats ||
@@ -220,6 +222,9 @@ void RequestHandler::Handle(const v1::Request& request, Clock::time_point receiv
         break;
       case v1::Request::kStats:
         HandleStats(reply->mutable_stats());
+        break;
+      case v1::Request::kKeptFrames:
+        status = HandleKeptFrames(request.kept_frames(), reply->mutable_kept_frames());
         break;
       case v1::Request::KIND_NOT_SET:
         status = InvalidArgument("request has no kind set (or one this server does not know)");
@@ -289,6 +294,7 @@ Status RequestHandler::HandleLocalise(const v1::LocaliseRequest& request,
     }
   }
   FillResult(result, *map, match, reply);
+  if (keeper_ != nullptr && reply->has_session()) KeepFrame(request, client, *map, result, *reply);
   reply->set_camera_scale(static_cast<float>(std::exp(match.camera_log_scale)));
   reply->set_num_features(static_cast<uint32_t>(features.size()));
   v1::Timings* t = reply->mutable_timings();

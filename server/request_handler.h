@@ -6,6 +6,8 @@
 //              map's settings   |  or: decode + check the feature set
 //              -> Localise (common/matching/localiser.h) -> ranked locations, timings
 //   list_maps, stats:  read the registry and the counters
+//   kept_frames:       list, fetch or delete the frames the keeper kept (frame_keeper.h);
+//                      a localise of a session tells the keeper how its frame was answered
 //   reload_map:        MapRegistry::Load of <maps_dir>/<name>.scnl (the server runs it on
 //                      its map loader thread instead: CheckReload + FillReloadReply)
 //
@@ -17,6 +19,7 @@
 
 #include "common/util/thread_pool.h"
 #include "proto/sceneloc.pb.h"
+#include "server/frame_keeper.h"
 #include "server/map_registry.h"
 #include "server/memory_budget.h"
 #include "server/server_options.h"
@@ -29,9 +32,10 @@ namespace sceneloc {
 class RequestHandler {
  public:
   // The pointees must outlive the handler. `pool` (may be null) splits one request's
-  // scoring when it has idle threads.
+  // scoring when it has idle threads. `keeper` (may be null: no frame is kept) is told of
+  // every answered session frame and serves kept_frames requests.
   RequestHandler(const ServerOptions& options, MapRegistry* registry, ThreadPool* pool,
-                 const ServerStats* stats);
+                 const ServerStats* stats, std::unique_ptr<FrameKeeper> keeper = nullptr);
 
   // Fills `reply` (cleared first) for `request`, which arrived at `received` from `client`
   // (its key name with auth.enabled, else empty; sessions are kept per client).
@@ -44,6 +48,8 @@ class RequestHandler {
 
   // The live sessions of every map (thread-safe).
   SessionCounts sessions() const { return sessions_->Counts(); }
+  // The frame keeper; null when keep_frames.dir is not set.
+  const FrameKeeper* keeper() const { return keeper_.get(); }
 
   // InvalidArgument unless the request names a map by a plain file stem (one that cannot
   // reach outside the maps directory).
@@ -68,6 +74,11 @@ class RequestHandler {
                        const LoadedMap& map, const MatchOptions& match,
                        const LocaliseResult& result, const SessionSeed& seed,
                        v1::LocaliseReply* reply) const;
+  // Tells the keeper how a session's JPEG frame was answered.
+  void KeepFrame(const v1::LocaliseRequest& request, const std::string& client,
+                 const LoadedMap& map, const LocaliseResult& result,
+                 const v1::LocaliseReply& reply) const;
+  Status HandleKeptFrames(const v1::KeptFramesRequest& request, v1::KeptFramesReply* reply) const;
   Status HandleReload(const v1::ReloadMapRequest& request, v1::ReloadMapReply* reply) const;
   void HandleListMaps(v1::ListMapsReply* reply) const;
   void HandleStats(v1::StatsReply* reply) const;
@@ -80,6 +91,7 @@ class RequestHandler {
   const std::unique_ptr<MemoryBudget> decode_budget_;
   // The sessions of every map (thread-safe).
   const std::unique_ptr<SessionStore> sessions_;
+  const std::unique_ptr<FrameKeeper> keeper_;  // thread-safe; may be null
 };
 
 // Writes what identifies and describes a loaded map.

@@ -18,13 +18,14 @@ constexpr int kLingerMs = 1000;
 
 }  // namespace
 
-ZmqServer::ZmqServer(const ServerOptions& options, MapRegistry* registry, ThreadPool* engine_pool)
+ZmqServer::ZmqServer(const ServerOptions& options, MapRegistry* registry, ThreadPool* engine_pool,
+                     std::unique_ptr<FrameKeeper> keeper)
     : options_(options),
       registry_(registry),
       own_engine_pool_(engine_pool != nullptr ? nullptr
                                               : std::make_unique<ThreadPool>(options.threads)),
       engine_pool_(engine_pool != nullptr ? engine_pool : own_engine_pool_.get()),
-      handler_(options, registry, engine_pool_, &stats_),
+      handler_(options, registry, engine_pool_, &stats_, std::move(keeper)),
       // Requests parsed on a worker (larger than kInlineParseBytes) hold all workers but
       // one at most: small requests always have a worker (with one worker, no lane).
       queue_(static_cast<size_t>(options.queue_capacity), std::max(1, options.threads - 1)),
@@ -118,7 +119,13 @@ bool ZmqServer::WaitForLoader(std::chrono::milliseconds timeout) {
 StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options, MapRegistry* registry,
                                                 ThreadPool* engine_pool) {
   SCENELOC_RETURN_IF_ERROR(options.Validate());
-  auto server = std::make_unique<ZmqServer>(options, registry, engine_pool);
+  std::unique_ptr<FrameKeeper> keeper;
+  if (!options.keep_frames.dir.empty()) {
+    auto opened = FrameKeeper::Open(options.keep_frames);
+    if (!opened.ok()) return opened.status();
+    keeper = std::move(opened).value();
+  }
+  auto server = std::make_unique<ZmqServer>(options, registry, engine_pool, std::move(keeper));
   SCENELOC_RETURN_IF_ERROR(server->Bind());
   // The operator endpoint first: a taken port stops the start before anything serves.
   SCENELOC_RETURN_IF_ERROR(server->StartOperatorHttp());

@@ -49,6 +49,13 @@ void ZmqServer::ReadRequest(bool draining) {
                   "many): put the map file in every worker's maps folder (each reloads it on "
                   "its own) or send each worker SIGHUP");
   }
+  if (job->parsed && job->request.kind_case() == v1::Request::kKeptFrames &&
+      !options_.connect.empty()) {
+    return refuse(v1::FAILED_PRECONDITION,
+                  "kept_frames is not taken through a broker (each worker keeps the frames it "
+                  "answered): read the worker's keep_frames.dir, which sceneloc-train --extend "
+                  "takes as it is");
+  }
   if (zap_ != nullptr) {
     job->client = UserOf(in.payload);
     const Status allowed = CheckPermission(job->client, job->parsed ? &job->request : nullptr);
@@ -75,9 +82,10 @@ Status ZmqServer::CheckPermission(const std::string& user, const v1::Request* re
   if (role == ZapHandler::Role::kUnknown) {
     return PermissionDenied("key '" + user + "' is no longer in " + options_.auth.clients);
   }
-  if (request != nullptr && request->kind_case() == v1::Request::kReloadMap &&
-      role != ZapHandler::Role::kAdmin) {
-    return PermissionDenied("reload_map needs an admin key; '" + user +
+  if (request != nullptr && role != ZapHandler::Role::kAdmin &&
+      (request->kind_case() == v1::Request::kReloadMap ||
+       request->kind_case() == v1::Request::kKeptFrames)) {
+    return PermissionDenied(std::string(KindName(*request)) + " needs an admin key; '" + user +
                             "' is not marked admin in " + options_.auth.clients);
   }
   return Status::Ok();

@@ -113,17 +113,20 @@ SettingTable AuthSettings(AuthOptions* a) {
           .Help("the server's key pair file (sceneloc keygen server)")
           .Flag("server-key"),
       Setting("auth", "clients", &a->clients)
-          .Help("authorised client keys file, re-read on SIGHUP; admin: true may reload")
+          .Help("authorised client keys file, re-read on SIGHUP; admin: true may reload and "
+                "read kept frames")
           .Flag("auth-clients"),
   };
 }
 
 // Every settable field of the server, each declared once: its own sections, the sessions'
-// (server/session_store.cc), then the engine's matching: and sequence: (configs/match.yaml).
+// (server/session_store.cc) and the kept frames' (server/frame_keeper.cc), then the engine's
+// matching: and sequence: (configs/match.yaml).
 SettingTable Fields(ServerOptions* o) {
   SettingTable table = ServerSection(o);
-  for (SettingTable part : {LimitsSettings(&o->limits), AuthSettings(&o->auth),
-                            SessionSettings(&o->sessions), MatchSettings(&o->matching)}) {
+  for (SettingTable part :
+       {LimitsSettings(&o->limits), AuthSettings(&o->auth), SessionSettings(&o->sessions),
+        KeepFramesSettings(&o->keep_frames), MatchSettings(&o->matching)}) {
     table.insert(table.end(), part.begin(), part.end());
   }
   return table;
@@ -159,6 +162,7 @@ Status ServerOptions::Validate() const {
   ServerOptions copy = *this;
   SCENELOC_RETURN_IF_ERROR(CheckSettings(ServerSection(&copy)));
   SCENELOC_RETURN_IF_ERROR(sessions.Validate());
+  SCENELOC_RETURN_IF_ERROR(keep_frames.Validate());
   SCENELOC_RETURN_IF_ERROR(limits.Validate());
   SCENELOC_RETURN_IF_ERROR(auth.Validate());
   if (!metrics_endpoint.empty()) {
@@ -241,6 +245,9 @@ std::string DocumentedServerSettings(const ServerOptions& options) {
         "Who may connect (docs/security.md). Off: anyone who reaches\n"
         "the endpoint."},
        {"sessions", "Robots' sessions kept in the server (docs/sessions.md)."},
+       {"keep_frames",
+        "Frames of sessions the maps failed on, kept for the next experience\n"
+        "(docs/experiences.md). Off unless dir is set."},
        {"matching", "Recognition settings, as configs/match.yaml (common/matching/localiser.h)."},
        {"sequence", "The filter of requests that name a session, as configs/match.yaml."}});
 }

@@ -7,6 +7,7 @@
 //              max_in_flight_per_key, max_queued_bytes, max_decode_bytes, max_queue_wait_ms
 //   auth:      enabled, server_key, clients
 //   sessions:  max_sessions, idle_timeout_s, max_state_bytes
+//   keep_frames: dir, quota_bytes, min_unknown_frames, max_pending_bytes
 //   matching:, sequence:  as configs/match.yaml (common/config/config.h)
 //
 // Each field is declared once, with its range, unit and help (server_options.cc,
@@ -24,6 +25,7 @@
 
 #include "common/matching/localiser.h"
 #include "common/util/status.h"
+#include "server/frame_keeper.h"
 #include "server/session_store.h"
 
 namespace sceneloc {
@@ -126,6 +128,7 @@ struct ServerOptions {
   RequestLimits limits;
   AuthOptions auth;
   SessionOptions sessions;
+  KeepFramesOptions keep_frames;
   MatchOptions matching;
 
   Status Validate() const;

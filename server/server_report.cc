@@ -75,6 +75,10 @@ ServerGauges ZmqServer::Gauges() const {
   g.sessions = sessions.live;
   g.session_bytes = sessions.memory_bytes;
   g.draining = draining_;
+  if (const FrameKeeper* keeper = handler_.keeper(); keeper != nullptr) {
+    g.keeps_frames = true;
+    g.kept = keeper->Counts();
+  }
   return g;
 }
 

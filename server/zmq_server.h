@@ -50,7 +50,8 @@ class ZmqServer final : public Server {
  public:
   using Clock = std::chrono::steady_clock;
 
-  ZmqServer(const ServerOptions& options, MapRegistry* registry, ThreadPool* engine_pool);
+  ZmqServer(const ServerOptions& options, MapRegistry* registry, ThreadPool* engine_pool,
+            std::unique_ptr<FrameKeeper> keeper = nullptr);
   ~ZmqServer() override { Shutdown(); }
 
   // Start-up, in this order (Server::Start). Binds (or, in worker mode, connects) the

@@ -89,6 +89,21 @@ TEST_F(AuthTest, ReloadNeedsAnAdminKey) {
   EXPECT_EQ(reloaded->map().version().generation(), 2u);
 }
 
+// Kept frames are other robots' camera frames: an admin key only.
+TEST_F(AuthTest, KeptFramesNeedAnAdminKey) {
+  test::TestServer server = test::StartTestServerOnDir(options_);
+  ASSERT_FALSE(::testing::Test::HasFatalFailure());
+  v1::KeptFramesRequest list;
+  const Status refused = Connect(server.endpoint, "robot")->KeptFrames(list).status();
+  EXPECT_EQ(refused.code(), StatusCode::kPermissionDenied) << refused.ToString();
+  EXPECT_NE(refused.message().find("kept_frames needs an admin key"), std::string::npos)
+      << refused.message();
+  // The admin gets past the key check, to a server that keeps no frames.
+  const Status none = Connect(server.endpoint, "ops")->KeptFrames(list).status();
+  EXPECT_EQ(none.code(), StatusCode::kFailedPrecondition) << none.ToString();
+  EXPECT_NE(none.message().find("keep_frames.dir"), std::string::npos) << none.message();
+}
+
 // Sessions are kept per key: two keys using one session name have two sessions, so one
 // robot's key cannot read or disturb another's.
 TEST_F(AuthTest, SessionsAreKeptPerKey) {

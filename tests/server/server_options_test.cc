@@ -76,15 +76,18 @@ TEST(ServerOptionsTest, FlagsOverrideWithTheSameChecks) {
   ASSERT_TRUE(ParseServerOptions(ServerOptionsToYaml(options), "yaml", &again).ok());
   EXPECT_EQ(again.maps_dir, "/srv/maps");
   EXPECT_EQ(again.matching.s_min, 0.4);
-  // One flag per field: 24 server and limits fields, 3 auth fields, 3 sessions fields, the 19
-  // of the sequence filter and every matching field.
+  // One flag per field: 24 server and limits fields, 3 auth fields, 3 sessions fields, 4
+  // keep_frames fields, the 19 of the sequence filter and every matching field.
   const std::vector<ServerFlag> flags = ServerFlags();
   const auto matching = std::count_if(flags.begin(), flags.end(),
                                       [](const ServerFlag& f) { return f.section == "matching"; });
   const auto sequence = std::count_if(flags.begin(), flags.end(),
                                       [](const ServerFlag& f) { return f.section == "sequence"; });
   EXPECT_EQ(sequence, 19);
-  EXPECT_EQ(flags.size() - static_cast<size_t>(matching + sequence), 30u);
+  EXPECT_EQ(flags.size() - static_cast<size_t>(matching + sequence), 34u);
+  ASSERT_TRUE(ApplyServerFlag(Flag("keep-frames"), "/var/lib/sceneloc/kept", &options).ok());
+  EXPECT_EQ(options.keep_frames.dir, "/var/lib/sceneloc/kept");
+  EXPECT_FALSE(ApplyServerFlag(Flag("keep-frames-after"), "0", &options).ok());
   ASSERT_TRUE(ApplyServerFlag(Flag("sequence-evidence-weight"), "0.7", &options).ok());
   EXPECT_EQ(options.matching.sequence.evidence_weight, 0.7);
   EXPECT_FALSE(ApplyServerFlag(Flag("sequence-evidence-weight"), "0", &options).ok());

@@ -29,6 +29,7 @@ from .errors import (
 from .features import FeatureSet, Holistic
 from .replies import (
     Decision,
+    KeptRun,
     LatencySummary,
     LocaliseReply,
     MapInfo,
@@ -55,6 +56,7 @@ __all__ = [
     "Holistic",
     "Internal",
     "InvalidArgument",
+    "KeptRun",
     "LatencySummary",
     "LocaliseReply",
     "MapInfo",

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import random
 import time
+from pathlib import Path
 from typing import Optional, Sequence, Union
 
 import zmq
@@ -32,7 +33,7 @@ from .errors import Internal, StatusCode, Timeout, Unimplemented, reply_error
 from .features import FeatureSet
 from .keys import KeyPair, read_key_file
 from .options import ClientOptions, PathLike
-from .replies import LocaliseReply, MapInfo, StatsReply
+from .replies import KeptRun, LocaliseReply, MapInfo, StatsReply
 from .requests import check_map, localise_request
 from .wire import PROTOCOL_VERSION, field_head, pb
 
@@ -204,6 +205,46 @@ class Client:
         request = pb.Request()
         request.reload_map.map = map
         return MapInfo.from_proto(self._typed(request).reload_map.map)
+
+    def kept_runs(self, map: str = "") -> list[KeptRun]:
+        """The runs of frames the server kept where its maps failed (its keep_frames
+        settings), of `map` or of every map: by map, then by start. Raises NotFound for a map
+        with none, FailedPrecondition when the server keeps no frames, PermissionDenied
+        without an admin key."""
+        if map:
+            check_map(map)
+        request = pb.Request()
+        request.kept_frames.action = pb.KeptFramesRequest.LIST
+        request.kept_frames.map = map
+        return [KeptRun.from_proto(r) for r in self._typed(request).kept_frames.runs]
+
+    def fetch_kept_run(self, map: str, run: str, out_dir: PathLike) -> Path:
+        """Fetches a kept run page by page into out_dir/<run>/ (000000.jpg, ...: the bytes the
+        robot sent) and returns that folder: a walk for `sceneloc-train --extend`. Raises
+        NotFound for a run that is not there (and as kept_runs)."""
+        check_map(map)
+        folder = Path(out_dir) / run
+        folder.mkdir(parents=True, exist_ok=True)
+        request = pb.Request()
+        request.kept_frames.action = pb.KeptFramesRequest.FETCH
+        request.kept_frames.map = map
+        request.kept_frames.run = run
+        while True:
+            page = self._typed(request).kept_frames
+            for frame in page.frames:
+                (folder / Path(frame.file).name).write_bytes(frame.jpeg)
+            if not page.frames or not page.runs or page.next_frame >= page.runs[0].frames:
+                return folder
+            request.kept_frames.first_frame = page.next_frame
+
+    def delete_kept_run(self, map: str, run: str) -> None:
+        """Removes a kept run on the server, freeing its quota (as kept_runs for errors)."""
+        check_map(map)
+        request = pb.Request()
+        request.kept_frames.action = pb.KeptFramesRequest.DELETE
+        request.kept_frames.map = map
+        request.kept_frames.run = run
+        self._typed(request)
 
     def session_state(self, map: str, session: str) -> Optional[bytes]:
         """The state this client will send with the session's next frame: that of its last

@@ -217,6 +217,34 @@ class LatencySummary:
 
 
 @dataclasses.dataclass(frozen=True)
+class KeptRun:
+    """A session's frames the server kept in a row where its map failed (keep_frames):
+    from the first frame of an UNKNOWN streak until the session was LOCALISED again."""
+
+    map: str
+    run: str  # "<UTC start>-<session>": the folder its frames are in
+    session: str
+    client: str  # the key name of the session's client ("" without auth)
+    started_utc: str
+    last_utc: str
+    frames: int
+    bytes: int
+    map_checksum: int  # the map version that failed on them
+    # The session's last LOCALISED answer before the run (anchor_place -1: none).
+    anchor_place: int
+    anchor_name: str
+    anchor_probability: float
+    anchor_utc: str
+
+    @classmethod
+    def from_proto(cls, m: pb.KeptRun) -> KeptRun:
+        return cls(
+            m.map, m.run, m.session, m.client, m.started_utc, m.last_utc, m.frames, m.bytes,
+            m.map_checksum, m.anchor_place, m.anchor_name, m.anchor_probability, m.anchor_utc,
+        )
+
+
+@dataclasses.dataclass(frozen=True)
 class StatsReply:
     """The server's counters (its health check: answered by its I/O thread)."""
 

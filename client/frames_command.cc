@@ -1,0 +1,145 @@
+#include "client/frames_command.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <system_error>
+
+#include "common/util/file_io.h"
+
+namespace sceneloc {
+namespace {
+
+namespace fs = std::filesystem;
+
+int Fail(const Status& status, int code) {
+  std::fprintf(stderr, "sceneloc: %s\n", status.message().c_str());
+  return code;
+}
+
+void PrintRun(const v1::KeptRun& r) {
+  std::printf("%s\t%s\t%u frames\t%.1f MB\tsession %s\t%s .. %s\t", r.map().c_str(),
+              r.run().c_str(), r.frames(), static_cast<double>(r.bytes()) / 1e6,
+              r.session().c_str(), r.started_utc().c_str(), r.last_utc().c_str());
+  if (r.anchor_place() >= 0) {
+    std::printf("last LOCALISED at %d %s (%.2f) %s\n", r.anchor_place(), r.anchor_name().c_str(),
+                r.anchor_probability(), r.anchor_utc().c_str());
+  } else {
+    std::printf("never LOCALISED before\n");
+  }
+}
+
+void PrintUsage(const v1::KeptFramesReply& reply) {
+  std::printf("kept: %.1f MB of %.1f MB\n", static_cast<double>(reply.bytes_used()) / 1e6,
+              static_cast<double>(reply.quota_bytes()) / 1e6);
+}
+
+// The run's record as the server keeps it, with the frames fetched.
+std::string RunRecord(const v1::KeptRun& r, const std::vector<v1::KeptFrame>& frames) {
+  YAML::Emitter out;
+  out << YAML::Comment(
+      "Frames a sceneloc-server kept where its map failed (sceneloc frames fetch)");
+  out << YAML::BeginMap;
+  out << YAML::Key << "map" << YAML::Value << r.map();
+  out << YAML::Key << "run" << YAML::Value << r.run();
+  out << YAML::Key << "session" << YAML::Value << r.session();
+  out << YAML::Key << "client" << YAML::Value << r.client();
+  out << YAML::Key << "started_utc" << YAML::Value << r.started_utc();
+  out << YAML::Key << "map_checksum" << YAML::Value << r.map_checksum();
+  out << YAML::Key << "anchor" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "place" << YAML::Value << r.anchor_place();
+  out << YAML::Key << "name" << YAML::Value << r.anchor_name();
+  out << YAML::Key << "probability" << YAML::Value << r.anchor_probability();
+  out << YAML::Key << "utc" << YAML::Value << r.anchor_utc();
+  out << YAML::EndMap;
+  out << YAML::Key << "frames" << YAML::Value << YAML::BeginSeq;
+  for (const v1::KeptFrame& f : frames) {
+    out << YAML::Flow << YAML::BeginMap << YAML::Key << "file" << YAML::Value << f.file()
+        << YAML::Key << "utc" << YAML::Value << f.utc() << YAML::EndMap;
+  }
+  out << YAML::EndSeq << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
+}
+
+// Fetches one run page by page into out/<run>/ and out/<run>.yaml.
+int FetchRun(Client* client, const std::string& map, const std::string& run,
+             const std::string& out) {
+  v1::KeptFramesRequest request;
+  request.set_action(v1::KeptFramesRequest::FETCH);
+  request.set_map(map);
+  request.set_run(run);
+  const fs::path dir = fs::path(out) / run;
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) return Fail(IoError("cannot make '" + dir.string() + "': " + ec.message()), 2);
+  std::vector<v1::KeptFrame> frames;  // without their bytes, for the record
+  v1::KeptRun info;
+  for (;;) {
+    auto page = client->KeptFrames(request);
+    if (!page.ok()) return Fail(page.status(), 1);
+    if (page->runs_size() > 0) info = page->runs(0);
+    for (v1::KeptFrame& f : *page->mutable_frames()) {
+      if (const Status written = WriteFileAtomically((dir / f.file()).string(), f.jpeg());
+          !written.ok()) {
+        return Fail(written, 2);
+      }
+      f.clear_jpeg();
+      frames.push_back(std::move(f));
+    }
+    if (page->frames_size() == 0 || page->next_frame() >= info.frames()) break;
+    request.set_first_frame(page->next_frame());
+  }
+  const std::string record = (fs::path(out) / (run + ".yaml")).string();
+  if (const Status written = WriteFileAtomically(record, RunRecord(info, frames)); !written.ok()) {
+    return Fail(written, 2);
+  }
+  std::printf("%s: %zu frames -> %s (a walk for sceneloc-train --extend)\n", run.c_str(),
+              frames.size(), dir.string().c_str());
+  return 0;
+}
+
+}  // namespace
+
+int RunFrames(Client* client, const FramesArgs& args) {
+  v1::KeptFramesRequest request;
+  request.set_map(args.map);
+  if (args.action == "list") {
+    request.set_action(v1::KeptFramesRequest::LIST);
+    auto reply = client->KeptFrames(request);
+    if (!reply.ok()) return Fail(reply.status(), 1);
+    for (const v1::KeptRun& run : reply->runs()) PrintRun(run);
+    PrintUsage(*reply);
+    return 0;
+  }
+  if (args.map.empty()) return Fail(InvalidArgument(args.action + " needs --map"), 2);
+  if (args.action == "delete") {
+    if (args.run.empty()) return Fail(InvalidArgument("delete needs --run"), 2);
+    request.set_action(v1::KeptFramesRequest::DELETE);
+    request.set_run(args.run);
+    auto reply = client->KeptFrames(request);
+    if (!reply.ok()) return Fail(reply.status(), 1);
+    std::printf("deleted %s of map %s\n", args.run.c_str(), args.map.c_str());
+    PrintUsage(*reply);
+    return 0;
+  }
+  if (args.action != "fetch") {
+    return Fail(InvalidArgument("unknown action '" + args.action + "' (list, fetch, delete)"), 2);
+  }
+  if (args.out.empty()) return Fail(InvalidArgument("fetch needs --out DIR"), 2);
+  std::vector<std::string> runs;
+  if (!args.run.empty()) {
+    runs.push_back(args.run);
+  } else {
+    request.set_action(v1::KeptFramesRequest::LIST);
+    auto listed = client->KeptFrames(request);
+    if (!listed.ok()) return Fail(listed.status(), 1);
+    for (const v1::KeptRun& run : listed->runs()) runs.push_back(run.run());
+  }
+  for (const std::string& run : runs) {
+    if (const int status = FetchRun(client, args.map, run, args.out); status != 0) return status;
+  }
+  return 0;
+}
+
+}  // namespace sceneloc
