@@ -12,12 +12,14 @@
 #   - the confidence's ECE pooled over those sets on the extended maps, beside the same on the
 #     maps without the walks, each with its sampling floor;
 #   - the cost: extending day_left by the 50 night frames against training a map of those 50
-#     frames from scratch (median of 3 runs each, one after the other);
+#     frames from scratch (median of 3 runs each, one after the other), and the same on a
+#     generated 1,000-location map extended by 50 frames of its test pass (whatever the size
+#     of the map, the target says);
 #   - the same sets again with the confidence's three fitted constants (temperature, in-map
 #     slope and offset) fitted without each set's family, as docs/runs/accuracy.json's
 #     leave-one-set-out fit has them: ECE beside its floor, precision at 0.8, gross errors.
 # Writes OUT/experiences.json (for scripts/results_page.py record experiences) and prints a
-# summary. About 5 minutes on 2 cores.
+# summary. About 7 minutes on 2 cores.
 # Usage: scripts/experiences.sh [OUT_DIR] [DATA_DIR]
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -129,6 +131,23 @@ for _ in 1 2 3; do
     2>>"$out/cost.txt" >/dev/null
   /usr/bin/time -f "extend %e" "$train" --extend "$maps/day_left.scnl" --tour "$walks/night_even" \
     --out "$out/scratch.scnl" 2>>"$out/cost.txt" >/dev/null
+done
+# The same on a large map: a generated 1,000-location tour, extended by 50 frames of the same
+# street's other pass (frames 100-149).
+large="$out/large"
+if [[ ! -f "$large/map.scnl" ]]; then
+  rm -rf "$large" && mkdir -p "$large/walk"
+  "$build/tools/sceneloc-gentour" --out "$large/tour" --locations 1000 --threads 2 >/dev/null
+  "$train" --tour "$large/tour/tour" --out "$large/map.scnl" --threads 2 >/dev/null 2>&1
+  for f in $(ls "$large/tour/test" | sort | sed -n '101,150p'); do
+    ln -s "$large/tour/test/$f" "$large/walk/$f"
+  done
+fi
+for _ in 1 2 3; do
+  /usr/bin/time -f "train_large %e" "$train" --tour "$large/walk" --out "$out/scratch.scnl" \
+    --threads 2 2>>"$out/cost.txt" >/dev/null
+  /usr/bin/time -f "extend_large %e" "$train" --extend "$large/map.scnl" --tour "$large/walk" \
+    --out "$out/scratch.scnl" --threads 2 2>>"$out/cost.txt" >"$out/extend_large.txt"
 done
 rm -f "$out/scratch.scnl"
 

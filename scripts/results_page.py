@@ -557,7 +557,10 @@ def experiences_section(run):
             f"answers), without them {f3(pooled['today']['ece'])} (floor "
             f"{f3(pooled['today']['ece_floor'])}). Extending `day_left` by the 50 night frames "
             f"took {cost['extend_median']:.2f} s against {cost['train_median']:.2f} s to train "
-            f"a map of those frames alone (medians of 3).", ""]
+            f"a map of those frames alone (medians of 3)."
+            + (f" On a generated 1,000-location map, extending by 50 frames took "
+               f"{cost['extend_large_median']:.2f} s against {cost['train_large_median']:.2f} s."
+               if cost.get("extend_large_median") else ""), ""]
     rows = [[name.split("+")[1], str(a["frames"]), str(a["placed_by_session"]), str(a["bridged"]),
              str(a["recognised"]), str(a["added"]), str(a["within_2"])]
             for name, a in run["alignment"].items()]

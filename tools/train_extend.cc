@@ -14,8 +14,14 @@
 namespace sceneloc {
 namespace {
 
+// Reading the map file and writing the extended one.
+struct FileSeconds {
+  double load_seconds = 0;
+  double save_seconds = 0;
+};
+
 void PrintExtension(const ExtendSummary& s, const Map& before, const Map& after,
-                    const ExtendArgs& args, double seconds, size_t bytes) {
+                    const ExtendArgs& args, double seconds, size_t bytes, const FileSeconds& io) {
   const Experience& e = after.experiences.back();
   std::printf("extended %s with '%s' (%s) in %.1f s -> %s\n", args.map_path.c_str(), e.name.c_str(),
               ExperienceKindName(e.kind), seconds, args.out_path.c_str());
@@ -38,8 +44,11 @@ void PrintExtension(const ExtendSummary& s, const Map& before, const Map& after,
       before.num_places(), after.num_places(), before.num_images(), after.num_images(),
       before.num_landmarks(), after.num_landmarks(), after.experiences.size());
   std::printf("  map file             %.2f MB\n", static_cast<double>(bytes) / 1e6);
-  std::printf("  time (s)             extract %.1f, align %.1f, train the walk %.1f, merge %.1f\n",
-              s.walk.extract_seconds, s.align_seconds, s.train_seconds, s.merge_seconds);
+  std::printf(
+      "  time (s)             load %.1f, extract %.1f, align %.1f, train the walk %.1f, merge "
+      "%.1f, save %.1f\n",
+      io.load_seconds, s.walk.extract_seconds, s.align_seconds, s.train_seconds, s.merge_seconds,
+      io.save_seconds);
 }
 
 // One row per walk frame: its place (and that place's name), how sure the session was,
@@ -66,7 +75,9 @@ Status WriteFrames(const std::string& path, const std::vector<std::string>& name
 int ExtendCommand(const ExtendArgs& args) {
   Stopwatch watch;
   MapFileInfo info;
+  FileSeconds io;
   StatusOr<Map> map = LoadMap(args.map_path, &info);
+  io.load_seconds = watch.Seconds();
   if (!map.ok()) {
     std::fprintf(stderr, "sceneloc-train: %s\n", map.status().message().c_str());
     return 1;
@@ -114,7 +125,10 @@ int ExtendCommand(const ExtendArgs& args) {
   }
   result->summary.walk.extract_seconds = extract_seconds;
   MapFileInfo saved;
-  if (const Status s = SaveMap(result->map, args.out_path, &saved); !s.ok()) {
+  Stopwatch save;
+  const Status written = SaveMap(result->map, args.out_path, &saved);
+  io.save_seconds = save.Seconds();
+  if (const Status& s = written; !s.ok()) {
     std::fprintf(stderr, "sceneloc-train: %s\n", s.message().c_str());
     return 1;
   }
@@ -126,7 +140,7 @@ int ExtendCommand(const ExtendArgs& args) {
     }
   }
   PrintExtension(result->summary, m, result->map, args, watch.Seconds(),
-                 kMapHeaderBytes + saved.payload_bytes);
+                 kMapHeaderBytes + saved.payload_bytes, io);
   return 0;
 }
 

@@ -81,16 +81,24 @@ StatusOr<std::vector<WalkFrame>> AlignWalk(const Map& map, const TourFeatures& w
   for (size_t begin = 0; begin < n; begin += kWindow) {
     const size_t end = std::min(n, begin + kWindow);
     SCENELOC_ASSIGN_OR_RETURN(const TourWindow window, walk.Window(begin, end));
-    for (size_t i = begin; i < end; ++i) {
-      SCENELOC_ASSIGN_OR_RETURN(const LocaliseResult r,
-                                Localise(window[i], map, options.match, pool));
-      if (!r.ranked.empty()) {
-        frames[i].single = r.ranked[0].index;
-        frames[i].single_confidence = r.decision == Decision::kLocalised ? r.confidence : 0.0;
-        frames[i].single_inliers = std::max(0, r.ranked[0].inliers);
+    // A frame per thread: a whole query keeps a thread busier than its scoring split up.
+    std::vector<Status> failed(end - begin);
+    pool->ParallelFor(end - begin, 1, [&](size_t from, size_t to) {
+      for (size_t i = begin + from; i < begin + to; ++i) {
+        StatusOr<LocaliseResult> r = Localise(window[i], map, options.match, nullptr);
+        if (!r.ok()) {
+          failed[i - begin] = r.status();
+          continue;
+        }
+        if (!r->ranked.empty()) {
+          frames[i].single = r->ranked[0].index;
+          frames[i].single_confidence = r->decision == Decision::kLocalised ? r->confidence : 0.0;
+          frames[i].single_inliers = std::max(0, r->ranked[0].inliers);
+        }
+        evidence[i] = EvidenceOf(*r, map, options.match);
       }
-      evidence[i] = EvidenceOf(r, map, options.match);
-    }
+    });
+    for (const Status& status : failed) SCENELOC_RETURN_IF_ERROR(status);
     if (progress) progress("align", end, n);
   }
   std::vector<size_t> order(n);
@@ -336,13 +344,19 @@ StatusOr<ExtendResult> ExtendMap(const Map& map, const TourFeatures& walk,
   }
   ExtendPlaceIndex(first_landmark, first_image, &pool, &out);
   // The off-map level is read from every image's holistic descriptor, the walk's too; each
-  // walk has its own besides (confidence.h).
+  // walk has its own besides (confidence.h). The map's is measured again over every image
+  // (samples x images: 1.1 s of an extension of a 1,000-location map); reading each frame
+  // against its nearest walk's own level instead costs nothing per map but was measured less
+  // well calibrated (docs/history.md, "Experiences").
   CalibrateMap(&out, &pool);
   for (Experience& x : out.experiences) {
-    if (!x.calibration.valid) {
-      x.calibration = CalibrateImages(out, static_cast<int>(x.first_image),
-                                      static_cast<int>(x.num_images), &pool);
-    }
+    if (x.calibration.valid) continue;
+    const bool whole_tour = x.kind == ExperienceKind::kTour && x.first_image == 0 &&
+                            x.num_images == static_cast<uint32_t>(map.num_images());
+    x.calibration = whole_tour && map.calibration.valid
+                        ? map.calibration  // the same images, measured the same way
+                        : CalibrateImages(out, static_cast<int>(x.first_image),
+                                          static_cast<int>(x.num_images), &pool);
   }
   SCENELOC_RETURN_IF_ERROR(out.Validate());
   out.Finalize();
