@@ -323,8 +323,12 @@ StatusOr<ExtendResult> ExtendMap(const Map& map, const TourFeatures& walk,
   const size_t first_image = static_cast<size_t>(out.num_images());
   if (out.experiences.empty()) {
     const auto images = static_cast<uint32_t>(out.num_images());
-    out.experiences.push_back({"tour", out.provenance.tour_dir, out.provenance.created_utc,
-                               ExperienceKind::kTour, 0, images, images});
+    Experience tour;  // its calibration is the map's, below
+    tour.name = "tour";
+    tour.source_dir = out.provenance.tour_dir;
+    tour.created_utc = out.provenance.created_utc;
+    tour.num_images = tour.walk_frames = images;
+    out.experiences.push_back(tour);
   }
   Experience e;
   e.name = options.name;

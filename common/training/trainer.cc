@@ -236,7 +236,7 @@ Status FinishMap(const TrainOptions& options, ThreadPool* pool, TrainSummary* s,
   p.num_tracks = static_cast<uint32_t>(s->tracks);
   p.num_candidates = static_cast<uint32_t>(s->landmarks_before_selection);
   const auto n = static_cast<uint32_t>(map->num_images());
-  map->experiences = {{"tour", "", p.created_utc, ExperienceKind::kTour, 0, n, n}};
+  map->experiences = {{"tour", "", p.created_utc, ExperienceKind::kTour, 0, n, n, {}}};
   watch.Reset();
   CalibrateMap(map, pool);
   map->experiences.front().calibration = map->calibration;
