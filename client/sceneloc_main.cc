@@ -52,7 +52,7 @@ const char* StartNote(v1::SessionStart start) {
     case v1::RESET:
       return "\t(session reset)";
     case v1::MAP_RELOADED:
-      return "\t(map reloaded: session restarted)";
+      return "\t(map reloaded with other places: session restarted)";
     default:
       return "";
   }

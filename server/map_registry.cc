@@ -66,6 +66,7 @@ StatusOr<std::shared_ptr<const LoadedMap>> MapRegistry::Load(const std::string& 
   loaded->checksum = info.checksum;
   loaded->loaded_at = std::chrono::system_clock::now();
   loaded->map = std::move(map).value();
+  loaded->places_key = loaded->map.PlacesKey();
   loaded->extractor = FeatureExtractor::Create(loaded->map.options.extractor);
   loaded->sequence =
       std::make_unique<const SequenceFilter>(loaded->map, options_.self_test.sequence);

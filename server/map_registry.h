@@ -38,6 +38,7 @@ struct LoadedMap {
   std::string path;         // the file it was loaded from
   uint64_t generation = 0;  // 1 on the first load of this name, +1 on each later load
   uint32_t checksum = 0;    // MapFileInfo::checksum: the content's CRC-32
+  uint32_t places_key = 0;  // map.PlacesKey(): what sessions are kept against
   std::chrono::system_clock::time_point loaded_at;
   Map map;  // Validate()d and Finalize()d
   // Extracts query features exactly as the map's tour was extracted (its own settings).

@@ -84,7 +84,7 @@ StatusOr<FeatureSet> ExtractJpeg(const std::string& jpeg, const LoadedMap& map,
 
 TokenOwner TokenOwnerOf(const std::string& client, const v1::LocaliseRequest& request,
                         const LoadedMap& map) {
-  return {client, request.session(), map.checksum, map.map.num_places(),
+  return {client, request.session(), map.places_key, map.map.num_places(),
           map.sequence->num_speeds()};
 }
 
@@ -339,7 +339,7 @@ double RequestHandler::UpdateSession(const v1::LocaliseRequest& request, const s
   v1::SessionAnswer* out = reply->mutable_session();
   const TokenOwner owner = TokenOwnerOf(client, request, map);
   SequenceState after;  // a copy, serialised outside the store's lock
-  const SessionStart start = sessions_->Update(client, map.name, request.session(), map.generation,
+  const SessionStart start = sessions_->Update(client, map.name, request.session(), map.places_key,
                                                seed, Clock::now(), [&](SequenceState* state) {
                                                  answer = map.sequence->Update(evidence, state);
                                                  after = *state;

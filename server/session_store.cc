@@ -98,7 +98,7 @@ void SessionStore::Recount(const std::string& key, const Slot* slot, size_t stat
 }
 
 SessionStart SessionStore::Update(const std::string& client, const std::string& map,
-                                  const std::string& name, uint64_t generation,
+                                  const std::string& name, uint32_t map_key,
                                   const SessionSeed& seed, Clock::time_point now,
                                   const std::function<void(SequenceState*)>& step) {
   const std::string key = Key(client, map, name);
@@ -109,7 +109,7 @@ SessionStart SessionStore::Update(const std::string& client, const std::string& 
     MutexLock lock(&slot->mutex);
     if (slot->fresh) {
       start = SessionStart::kNew;
-    } else if (slot->generation != generation) {
+    } else if (slot->map_key != map_key) {
       start = SessionStart::kMapReloaded;
     }
     if (seed.reset) {
@@ -124,7 +124,7 @@ SessionStart SessionStore::Update(const std::string& client, const std::string& 
     } else if (seed.carried != nullptr) {
       slot->state = *seed.carried;
     }
-    slot->generation = generation;
+    slot->map_key = map_key;
     slot->fresh = false;
     step(&slot->state);
     state_bytes = BeliefBytes(slot->state);

@@ -5,7 +5,9 @@
 // with auth.enabled, one robot's key cannot reach another key's sessions. The state is
 // bounded: at most max_sessions live and max_state_bytes of states (the least recently
 // used are dropped first), a session unused for idle_timeout_s is dropped, and a session whose map
-// was reloaded since its last frame (a new generation) starts again.
+// was reloaded with other places since its last frame (another Map::PlacesKey: another tour, new
+// ground) starts again; a reload that keeps the places (the same file, or the map extended by a
+// walk of its route) continues it.
 //
 // The store is half of where a session lives: every reply also carries the state
 // (session_token.h) and a request that sends it back continues from it (SessionSeed), so
@@ -78,16 +80,16 @@ class SessionStore {
   // REQUIRES: options.Validate().ok().
   explicit SessionStore(const SessionOptions& options);
 
-  // Runs `step` on the state of session (client, map, name) at map generation `generation`,
+  // Runs `step` on the state of session (client, map, name) on the map of places `map_key`,
   // under that session's lock (not the store's): on seed.carried when given; on a fresh state after
   // a reset, a state of another map, for a session the store does not hold, or one that last ran on
-  // another generation of its map; on its stored state otherwise. Keeps the result. Drops
+  // a map of other places; on its stored state otherwise. Keeps the result. Drops
   // the sessions idle past the timeout and, for a new session when full or when the states
   // pass max_state_bytes, the least recently used. Returns how the session began (CONTINUED for a
   // carried state). A session dropped while its frame is filtered loses that frame's state
   // from the store (its reply still carries it).
   SessionStart Update(const std::string& client, const std::string& map, const std::string& name,
-                      uint64_t generation, const SessionSeed& seed, Clock::time_point now,
+                      uint32_t map_key, const SessionSeed& seed, Clock::time_point now,
                       const std::function<void(SequenceState*)>& step) EXCLUDES(mutex_);
 
   SessionCounts Counts() const EXCLUDES(mutex_);
@@ -98,8 +100,8 @@ class SessionStore {
   struct Slot {
     Mutex mutex;
     SequenceState state GUARDED_BY(mutex);
-    uint64_t generation GUARDED_BY(mutex) = 0;
-    bool fresh GUARDED_BY(mutex) = true;  // no frame filtered yet
+    uint32_t map_key GUARDED_BY(mutex) = 0;  // Map::PlacesKey of its last frame's map
+    bool fresh GUARDED_BY(mutex) = true;     // no frame filtered yet
   };
   struct Entry {
     std::shared_ptr<Slot> slot;

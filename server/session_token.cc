@@ -61,7 +61,7 @@ std::string SerializeSessionToken(const SequenceState& state, const TokenOwner& 
               4 * (state.location.size() + state.tracked.size() + state.speeds.size()) +
               2 * state.camera_counts.size() + 4);
   out.append(kMagic, sizeof(kMagic));
-  Put<uint32_t>(&out, owner.map_checksum);
+  Put<uint32_t>(&out, owner.map_key);
   Put<uint32_t>(&out, static_cast<uint32_t>(owner.num_locations));
   Put<uint32_t>(&out, static_cast<uint32_t>(owner.num_speeds));
   Put<uint32_t>(&out, static_cast<uint32_t>(state.tracked.size()));
@@ -120,8 +120,9 @@ StatusOr<TokenFit> ParseSessionToken(const std::string& bytes, const TokenOwner&
   if (session != SessionHash(owner)) {
     return InvalidArgument("session_state belongs to another session (another name or key)");
   }
-  // Another map, map version, or filter settings (other speeds): start again.
-  if (checksum != owner.map_checksum || static_cast<int>(locations) != owner.num_locations ||
+  // Another map, a version of it with other places, or other filter settings (speeds): start
+  // again.
+  if (checksum != owner.map_key || static_cast<int>(locations) != owner.num_locations ||
       static_cast<int>(speeds) != owner.num_speeds) {
     return TokenFit::kOtherMap;
   }

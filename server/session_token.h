@@ -4,8 +4,9 @@
 // eviction, expiry). The client sends back the state of its last reply; sceneloc::Client
 // does it by itself.
 //
-// Layout (little-endian): "SLS6", uint32 map checksum (the map file's CRC-32: the same in
-// every process serving that file), uint32 locations N, uint32 speeds S (the filter's
+// Layout (little-endian): "SLS6", uint32 map key (Map::PlacesKey: the map's tour and places,
+// the same in every process serving that map and in every version of it that keeps its places,
+// such as one extended by a walk of its route), uint32 locations N, uint32 speeds S (the filter's
 // num_speeds()), uint32 tracked locations K, uint32 frames, uint32 camera bins B (0 before
 // the session has measured its camera's scale, else SequenceOptions::kCameraBins), uint64
 // session hash (FNV-1a of the client's key name and the session name), float32 the track's
@@ -37,7 +38,7 @@ namespace sceneloc {
 struct TokenOwner {
   std::string client;
   std::string session;
-  uint32_t map_checksum = 0;
+  uint32_t map_key = 0;  // Map::PlacesKey
   int num_locations = 0;
   int num_speeds = 0;  // SequenceFilter::num_speeds() of the map's filter
 };
@@ -46,12 +47,13 @@ std::string SerializeSessionToken(const SequenceState& state, const TokenOwner& 
 
 enum class TokenFit {
   kFits,      // state filled: continue from it
-  kOtherMap,  // a token of another map (or another version of it): start again
+  kOtherMap,  // a token of another map (or a version of it with other places): start again
 };
 
 // InvalidArgument naming the problem for a token that is corrupt (size, checksum, values,
 // tracked locations out of order or past the map) or belongs to another session. A well-formed
-// token of another map or map version is not an error: kOtherMap, and the session starts again.
+// token of another map, or of a version with other places, is not an error: kOtherMap, and the
+// session starts again.
 StatusOr<TokenFit> ParseSessionToken(const std::string& bytes, const TokenOwner& owner,
                                      SequenceState* state);
 

@@ -171,6 +171,12 @@ struct Map {
   }
   // Every place's name, in place order.
   std::vector<std::string> PlaceNames() const;
+  // What a robot's session is kept against (server/session_token.h): a CRC-32 of the map's
+  // tour (its first walk's creation time and name) and of its places' names in order. The
+  // same for every version of a map that keeps its places (one extended by a walk of its
+  // route, or reloaded as it was); another for a map retrained, of another tour, or with new
+  // ground added. REQUIRES: Finalize()d.
+  uint32_t PlacesKey() const;
   bool has_holistic() const { return !holistic_grid.empty(); }
   bool has_place_index() const { return !place_index.empty(); }
   bool has_lookalikes() const { return !lookalike_offsets.empty(); }

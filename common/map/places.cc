@@ -5,6 +5,8 @@
 #include <string>
 #include <vector>
 
+#include "common/map/crc32.h"
+
 namespace sceneloc {
 
 const char* ExperienceKindName(ExperienceKind kind) {
@@ -99,6 +101,18 @@ void DerivePlaces(Map* map) {
       map->place_image.push_back(static_cast<uint32_t>(i));
     }
   }
+}
+
+uint32_t Map::PlacesKey() const {
+  const bool walks = !experiences.empty();
+  const std::string tour = (walks ? experiences.front().created_utc : provenance.created_utc) +
+                           '\n' + (walks ? experiences.front().name : provenance.tour_dir) + '\n';
+  uint32_t crc = Crc32(tour.data(), tour.size());
+  for (int p = 0; p < num_places(); ++p) {
+    const std::string name = PlaceName(p) + '\n';
+    crc = Crc32(name.data(), name.size(), crc);
+  }
+  return crc;
 }
 
 }  // namespace sceneloc

@@ -281,9 +281,10 @@ TEST_F(SessionTest, ResetStartsAgain) {
       << stateless->error();
 }
 
-// A map reload mid-session (a new generation) restarts the sessions the server keeps:
-// MAP_RELOADED, frames from 1 (a client that carries no state).
-TEST_F(SessionTest, MapReloadRestartsTheSession) {
+// The sessions the server keeps (a client that carries no state) follow the map's places: a
+// reload that keeps them (the same file) continues them; a map of other places (here the same
+// map as if retrained: its tour made at another time) restarts them, MAP_RELOADED, frames from 1.
+TEST_F(SessionTest, MapReloadWithOtherPlacesRestartsTheSession) {
   const auto frame = [&](int i) {
     std::unique_ptr<Client> fresh = Connect();  // no carried state: the server's alone
     return Frame(fresh.get(), i, "r");
@@ -292,20 +293,32 @@ TEST_F(SessionTest, MapReloadRestartsTheSession) {
   auto reloaded = client_->Reload(kTestMapName);
   ASSERT_TRUE(reloaded.ok()) << reloaded.status().ToString();
   EXPECT_EQ(reloaded->map().version().generation(), 2u);
-  auto reply = frame(3);
+  auto same = frame(3);
+  ASSERT_TRUE(same.ok());
+  EXPECT_EQ(same->session().start(), v1::CONTINUED);
+  EXPECT_EQ(same->session().frames(), 4u);
+
+  auto map = LoadMap(dir_.MapPath());
+  ASSERT_TRUE(map.ok());
+  ASSERT_FALSE(map->experiences.empty());
+  map->experiences.front().created_utc = "2000-01-01T00:00:00Z";
+  ASSERT_TRUE(SaveMap(*map, dir_.MapPath()).ok());
+  ASSERT_TRUE(client_->Reload(kTestMapName).ok());
+  auto reply = frame(4);
   ASSERT_TRUE(reply.ok());
   EXPECT_EQ(reply->session().start(), v1::MAP_RELOADED);
   EXPECT_EQ(reply->session().frames(), 1u);
-  EXPECT_EQ(reply->map().generation(), 2u);
-  auto next = frame(4);
+  EXPECT_EQ(reply->map().generation(), 3u);
+  auto next = frame(5);
   ASSERT_TRUE(next.ok());
   EXPECT_EQ(next->session().start(), v1::CONTINUED);
   EXPECT_EQ(next->session().frames(), 2u);
 }
 
-// A carried state names the map's content (its checksum), not the reload count: the same
-// file reloaded continues the session; a changed map file restarts it.
-TEST_F(SessionTest, CarriedStateFollowsTheMapsContent) {
+// A carried state names the map's places (Map::PlacesKey), not the reload count nor the file's
+// bytes: the same file reloaded, or a changed file of the same places (as a map extended by a
+// walk of its route is), continues the session; a map of other places restarts it.
+TEST_F(SessionTest, CarriedStateFollowsTheMapsPlaces) {
   for (int i = 0; i < 3; ++i) ASSERT_TRUE(Frame(client_.get(), i, "r").ok());
   ASSERT_TRUE(client_->Reload(kTestMapName).ok());
   auto same = Frame(client_.get(), 3, "r");
@@ -314,12 +327,20 @@ TEST_F(SessionTest, CarriedStateFollowsTheMapsContent) {
   EXPECT_EQ(same->session().frames(), 4u);
   auto map = LoadMap(dir_.MapPath());
   ASSERT_TRUE(map.ok());
-  map->provenance.created_utc = "2000-01-01T00:00:00Z";  // other bytes, other checksum
+  map->provenance.tool_version = "another build";  // other bytes, the same places
   ASSERT_TRUE(SaveMap(*map, dir_.MapPath()).ok());
   auto reloaded = client_->Reload(kTestMapName);
   ASSERT_TRUE(reloaded.ok());
   EXPECT_GE(reloaded->map().version().generation(), 3u);
-  auto changed = Frame(client_.get(), 4, "r");
+  auto kept = Frame(client_.get(), 4, "r");
+  ASSERT_TRUE(kept.ok());
+  EXPECT_EQ(kept->session().start(), v1::CONTINUED);
+  EXPECT_EQ(kept->session().frames(), 5u);
+  ASSERT_FALSE(map->experiences.empty());
+  map->experiences.front().created_utc = "2000-01-01T00:00:00Z";  // as if retrained
+  ASSERT_TRUE(SaveMap(*map, dir_.MapPath()).ok());
+  ASSERT_TRUE(client_->Reload(kTestMapName).ok());
+  auto changed = Frame(client_.get(), 5, "r");
   ASSERT_TRUE(changed.ok());
   EXPECT_EQ(changed->session().start(), v1::MAP_RELOADED);
   EXPECT_EQ(changed->session().frames(), 1u);

@@ -117,6 +117,8 @@ TEST_F(ExtendTest, ADuskWalkBecomesAnExperienceOfTheRoute) {
   EXPECT_TRUE(map.experiences[1].calibration.valid);
   EXPECT_EQ(map.num_landmarks(), map_->num_landmarks() + static_cast<int>(s.landmarks_added));
   ASSERT_TRUE(map.Validate().ok()) << map.Validate().ToString();
+  // The same places: robots' sessions continue across the reload (server/session_store.h).
+  EXPECT_EQ(map.PlacesKey(), map_->PlacesKey());
 
   const std::vector<FeatureSet> later = Walk(Dusk(0.45));
   const double before = WithinTwo(*map_, later), after = WithinTwo(map, later);
@@ -157,6 +159,7 @@ TEST_F(ExtendTest, AnotherStreetIsNewGround) {
   EXPECT_EQ(extended->summary.new_places, static_cast<size_t>(kLocations));
   ASSERT_EQ(map.experiences.size(), 2u);
   EXPECT_EQ(map.experiences[1].kind, ExperienceKind::kNewGround);
+  EXPECT_NE(map.PlacesKey(), map_->PlacesKey());  // other places: sessions start again
   TourOptions street7 = Street(7);
   EXPECT_GE(WithinTwo(map, Walk(street7), kLocations), 0.8);
   EXPECT_GE(WithinTwo(map, Walk(Street())), WithinTwo(*map_, Walk(Street())) - 0.05);

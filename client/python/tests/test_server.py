@@ -21,7 +21,7 @@ Connect = Callable[[ServerProcess], sceneloc.Client]
 
 
 def check_session_state(state: bytes, num_locations: int) -> None:
-    """A session's state as server/session_token.h lays it out: "SLS6", the map's checksum,
+    """A session's state as server/session_token.h lays it out: "SLS6", the map's places key,
     N locations, S speeds, K tracked locations, frames, B camera bins (0 or 64), ...,
     44 + 4 (N + 1 + K + (K + 1) S) + 2 B bytes."""
     assert state[:4] == b"SLS6"

@@ -25,7 +25,7 @@ class SessionStart(enum.IntEnum):
     CONTINUED = 0  # the session's earlier frames were used
     NEW = 1  # the server had no such session (first frame, expired or evicted)
     RESET = 2  # the request asked for reset_session
-    MAP_RELOADED = 3  # the map changed since the session's last frame: started again
+    MAP_RELOADED = 3  # the map's places changed since the session's last frame: started again
 
 
 def _enum(kind: type[enum.IntEnum], value: int) -> int:
