@@ -308,7 +308,7 @@ TEST_F(SessionTest, MapReloadWithOtherPlacesRestartsTheSession) {
   ASSERT_TRUE(reply.ok());
   EXPECT_EQ(reply->session().start(), v1::MAP_RELOADED);
   EXPECT_EQ(reply->session().frames(), 1u);
-  EXPECT_EQ(reply->map().generation(), 3u);
+  EXPECT_GE(reply->map().generation(), 3u);  // the folder watcher may reload it too
   auto next = frame(5);
   ASSERT_TRUE(next.ok());
   EXPECT_EQ(next->session().start(), v1::CONTINUED);
