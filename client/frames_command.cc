@@ -1,7 +1,5 @@
 #include "client/frames_command.h"
 
-#include <yaml-cpp/yaml.h>
-
 #include <cstdio>
 #include <filesystem>
 #include <system_error>
@@ -35,33 +33,6 @@ void PrintUsage(const v1::KeptFramesReply& reply) {
               static_cast<double>(reply.quota_bytes()) / 1e6);
 }
 
-// The run's record as the server keeps it, with the frames fetched.
-std::string RunRecord(const v1::KeptRun& r, const std::vector<v1::KeptFrame>& frames) {
-  YAML::Emitter out;
-  out << YAML::Comment(
-      "Frames a sceneloc-server kept where its map failed (sceneloc frames fetch)");
-  out << YAML::BeginMap;
-  out << YAML::Key << "map" << YAML::Value << r.map();
-  out << YAML::Key << "run" << YAML::Value << r.run();
-  out << YAML::Key << "session" << YAML::Value << r.session();
-  out << YAML::Key << "client" << YAML::Value << r.client();
-  out << YAML::Key << "started_utc" << YAML::Value << r.started_utc();
-  out << YAML::Key << "map_checksum" << YAML::Value << r.map_checksum();
-  out << YAML::Key << "anchor" << YAML::Value << YAML::BeginMap;
-  out << YAML::Key << "place" << YAML::Value << r.anchor_place();
-  out << YAML::Key << "name" << YAML::Value << r.anchor_name();
-  out << YAML::Key << "probability" << YAML::Value << r.anchor_probability();
-  out << YAML::Key << "utc" << YAML::Value << r.anchor_utc();
-  out << YAML::EndMap;
-  out << YAML::Key << "frames" << YAML::Value << YAML::BeginSeq;
-  for (const v1::KeptFrame& f : frames) {
-    out << YAML::Flow << YAML::BeginMap << YAML::Key << "file" << YAML::Value << f.file()
-        << YAML::Key << "utc" << YAML::Value << f.utc() << YAML::EndMap;
-  }
-  out << YAML::EndSeq << YAML::EndMap;
-  return std::string(out.c_str()) + "\n";
-}
-
 // Fetches one run page by page into out/<run>/ and out/<run>.yaml.
 int FetchRun(Client* client, const std::string& map, const std::string& run,
              const std::string& out) {
@@ -73,29 +44,29 @@ int FetchRun(Client* client, const std::string& map, const std::string& run,
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (ec) return Fail(IoError("cannot make '" + dir.string() + "': " + ec.message()), 2);
-  std::vector<v1::KeptFrame> frames;  // without their bytes, for the record
-  v1::KeptRun info;
+  std::string record;  // the run's record file, as the server keeps it
+  size_t frames = 0;
   for (;;) {
     auto page = client->KeptFrames(request);
     if (!page.ok()) return Fail(page.status(), 1);
-    if (page->runs_size() > 0) info = page->runs(0);
-    for (v1::KeptFrame& f : *page->mutable_frames()) {
+    for (const v1::KeptFrame& f : page->frames()) {
       if (const Status written = WriteFileAtomically((dir / f.file()).string(), f.jpeg());
           !written.ok()) {
         return Fail(written, 2);
       }
-      f.clear_jpeg();
-      frames.push_back(std::move(f));
     }
-    if (page->frames_size() == 0 || page->next_frame() >= info.frames()) break;
+    frames += static_cast<size_t>(page->frames_size());
+    record = page->record();
+    const uint32_t total = page->runs_size() > 0 ? page->runs(0).frames() : 0;
+    if (page->frames_size() == 0 || page->next_frame() >= total) break;
     request.set_first_frame(page->next_frame());
   }
-  const std::string record = (fs::path(out) / (run + ".yaml")).string();
-  if (const Status written = WriteFileAtomically(record, RunRecord(info, frames)); !written.ok()) {
+  const std::string path = (fs::path(out) / (run + ".yaml")).string();
+  if (const Status written = WriteFileAtomically(path, record); !written.ok()) {
     return Fail(written, 2);
   }
-  std::printf("%s: %zu frames -> %s (a walk for sceneloc-train --extend)\n", run.c_str(),
-              frames.size(), dir.string().c_str());
+  std::printf("%s: %zu frames -> %s (a walk for sceneloc-train --extend)\n", run.c_str(), frames,
+              dir.string().c_str());
   return 0;
 }
 

@@ -5,11 +5,11 @@
 
 #include <algorithm>
 #include <cstdio>
-#include <ctime>
 #include <filesystem>
 #include <system_error>
 
 #include "common/util/file_io.h"
+#include "common/util/utc_time.h"
 
 namespace sceneloc {
 namespace {
@@ -25,16 +25,8 @@ constexpr size_t kMaxTrackers = 10000;
 // rewritten with every frame).
 constexpr int kMaxRunFrames = 2000;
 
-std::string Utc(FrameKeeper::SystemClock::time_point t, const char* format) {
-  const std::time_t seconds = FrameKeeper::SystemClock::to_time_t(t);
-  std::tm tm{};
-  gmtime_r(&seconds, &tm);
-  char text[32];
-  std::strftime(text, sizeof(text), format, &tm);
-  return text;
-}
-
-std::string IsoUtc(FrameKeeper::SystemClock::time_point t) { return Utc(t, "%Y-%m-%dT%H:%M:%SZ"); }
+// A run's name starts with the UTC second it opened.
+constexpr char kRunTimeFormat[] = "%Y%m%dT%H%M%SZ";
 
 // The session's name as a file name's part.
 std::string SafeName(const std::string& session) {
@@ -207,11 +199,12 @@ void FrameKeeper::Release(int64_t bytes) {
 void FrameKeeper::Observe(const SessionFrame& frame, SystemClock::time_point now) {
   MutexLock lock(&mutex_);
   Sweep(now);
-  auto it = trackers_.find(TrackerKey(frame));
+  const std::string key = TrackerKey(frame);
+  auto it = trackers_.find(key);
   if (it == trackers_.end()) {
     // A session is tracked from its first frame that counts or is worth remembering.
     if (!frame.localised && frame.jpeg.empty()) return;
-    it = trackers_.emplace(TrackerKey(frame), Tracker()).first;
+    it = trackers_.emplace(key, Tracker()).first;
   }
   Tracker& t = it->second;
   t.last_seen = now;
@@ -224,13 +217,13 @@ void FrameKeeper::Observe(const SessionFrame& frame, SystemClock::time_point now
     t.info.anchor_place = frame.session_place;
     t.info.anchor_name = frame.session_place_name;
     t.info.anchor_probability = frame.session_probability;
-    t.info.anchor_utc = IsoUtc(now);
+    t.info.anchor_utc = UtcText(now);
     return;
   }
   if (frame.jpeg.empty()) return;  // a feature set: counted neither way
   ++t.streak;
   Pending p{std::string(frame.jpeg),
-            {"", IsoUtc(now), frame.frame_place, frame.frame_confidence, frame.session_place,
+            {"", UtcText(now), frame.frame_place, frame.frame_confidence, frame.session_place,
              frame.session_probability, frame.off_map}};
   if (!t.run.empty() && static_cast<int>(t.records.size()) >= kMaxRunFrames) t.run.clear();
   if (!t.run.empty()) return QueueFrame(&t, std::move(p));
@@ -254,14 +247,15 @@ void FrameKeeper::EndStreak(Tracker* t) {
 }
 
 void FrameKeeper::OpenRun(Tracker* t, const SessionFrame& frame, SystemClock::time_point now) {
-  std::string name = Utc(now, "%Y%m%dT%H%M%SZ") + "-" + SafeName(frame.session);
+  const std::string base = UtcText(now, kRunTimeFormat) + "-" + SafeName(frame.session);
+  std::string name = base;
   // Unique against what is on disk and what this process named in the same second.
   std::error_code ec;
   const fs::path map_dir = fs::path(options_.dir) / frame.map;
   for (int n = 2; name == last_run_ || fs::exists(map_dir / name, ec) ||
                   fs::exists(map_dir / (name + kRunRecordSuffix), ec);
        ++n) {
-    name = Utc(now, "%Y%m%dT%H%M%SZ") + "-" + SafeName(frame.session) + "-" + std::to_string(n);
+    name = base + "-" + std::to_string(n);
   }
   last_run_ = name;
   t->run = name;
@@ -271,7 +265,7 @@ void FrameKeeper::OpenRun(Tracker* t, const SessionFrame& frame, SystemClock::ti
   t->info.run = name;
   t->info.session = frame.session;
   t->info.client = frame.client;
-  t->info.started_utc = IsoUtc(now);
+  t->info.started_utc = UtcText(now);
   t->info.map_checksum = frame.map_checksum;
   std::deque<Pending> pending;
   pending.swap(t->pending);

@@ -111,6 +111,7 @@ struct KeptPage {
   KeptRun run;
   std::vector<KeptFrame> frames;  // from the first asked for, in order
   int next_frame = 0;             // the first frame of the next page; run.frames when done
+  std::string record;             // the run's record file, as kept (YAML)
 };
 
 struct KeepFramesCounts {
@@ -149,9 +150,10 @@ class FrameKeeper {
   // first_frame past its end.
   StatusOr<KeptPage> Fetch(const std::string& map, const std::string& run, int first_frame,
                            int64_t max_bytes) const EXCLUDES(io_mutex_);
-  // Removes a run (its frames and record) and frees its bytes; a session still writing
-  // it starts a new run with its next kept frame.
-  Status Delete(const std::string& map, const std::string& run)
+  // Removes a run (its frames and record, even a damaged record) and frees its bytes; a
+  // session still writing it starts a new run with its next kept frame. Returns the run as it
+  // was listed (its names alone when its record could not be read).
+  StatusOr<KeptRun> Delete(const std::string& map, const std::string& run)
       EXCLUDES(mutex_, io_mutex_, usage_mutex_);
 
   // Waits until every write queued so far is done.
@@ -204,8 +206,10 @@ class FrameKeeper {
   void Sweep(SystemClock::time_point now) REQUIRES(mutex_);
   bool Reserve(int64_t bytes) EXCLUDES(usage_mutex_);
   void Release(int64_t bytes) EXCLUDES(usage_mutex_);
+  // A run from its record file; its frames' records and the file's text when asked for.
   StatusOr<KeptRun> ReadRun(const std::string& map, const std::string& run,
-                            std::vector<FrameRecord>* frames) const REQUIRES(io_mutex_);
+                            std::vector<FrameRecord>* frames, std::string* record = nullptr) const
+      REQUIRES(io_mutex_);
 
   const KeepFramesOptions options_;
 

@@ -18,7 +18,8 @@ namespace fs = std::filesystem;
 }  // namespace
 
 StatusOr<KeptRun> FrameKeeper::ReadRun(const std::string& map, const std::string& run,
-                                       std::vector<FrameRecord>* frames) const {
+                                       std::vector<FrameRecord>* frames,
+                                       std::string* record) const {
   const fs::path map_dir = fs::path(options_.dir) / map;
   const std::string path = (map_dir / (run + kRunRecordSuffix)).string();
   StatusOr<std::string> text = ReadFileBytes(path);
@@ -28,6 +29,7 @@ StatusOr<KeptRun> FrameKeeper::ReadRun(const std::string& map, const std::string
     }
     return text.status();
   }
+  if (record != nullptr) *record = *text;
   KeptRun out;
   out.map = map;
   out.run = run;
@@ -118,7 +120,7 @@ StatusOr<KeptPage> FrameKeeper::Fetch(const std::string& map, const std::string&
   MutexLock io(&io_mutex_);
   std::vector<FrameRecord> records;
   KeptPage page;
-  SCENELOC_ASSIGN_OR_RETURN(page.run, ReadRun(map, run, &records));
+  SCENELOC_ASSIGN_OR_RETURN(page.run, ReadRun(map, run, &records, &page.record));
   if (first_frame < 0 || first_frame > page.run.frames) {
     return InvalidArgument("run '" + run + "' has " + std::to_string(page.run.frames) +
                            " frames; first_frame " + std::to_string(first_frame) + " is past them");
@@ -136,7 +138,7 @@ StatusOr<KeptPage> FrameKeeper::Fetch(const std::string& map, const std::string&
   return page;
 }
 
-Status FrameKeeper::Delete(const std::string& map, const std::string& run) {
+StatusOr<KeptRun> FrameKeeper::Delete(const std::string& map, const std::string& run) {
   if (!IsValidMapName(map)) {
     return InvalidArgument("'" + map + "' is not a map name (a plain file stem)");
   }
@@ -164,8 +166,16 @@ Status FrameKeeper::Delete(const std::string& map, const std::string& run) {
   MutexLock io(&io_mutex_);
   const fs::path map_dir = fs::path(options_.dir) / map;
   const fs::path record = map_dir / (run + kRunRecordSuffix);
+  StatusOr<KeptRun> read = ReadRun(map, run, nullptr);
+  if (read.status().code() == StatusCode::kNotFound) return read.status();
+  KeptRun gone;
+  if (read.ok()) {
+    gone = *std::move(read);
+  } else {  // a damaged record: the run goes all the same
+    gone.map = map;
+    gone.run = run;
+  }
   std::error_code ec;
-  if (!fs::exists(record, ec)) return NotFound("no kept run '" + run + "' of map '" + map + "'");
   int64_t freed = static_cast<int64_t>(fs::file_size(record, ec));
   for (auto it = fs::directory_iterator(map_dir / run, ec); !ec && it != fs::end(it);
        it.increment(ec)) {
@@ -177,7 +187,7 @@ Status FrameKeeper::Delete(const std::string& map, const std::string& run) {
   if (ec) return OsError("cannot remove kept run", (map_dir / run).string(), ec.value());
   Release(freed);
   spdlog::info("keep_frames: deleted run {} of map '{}' ({:.1f} MB)", run, map, freed / 1e6);
-  return Status::Ok();
+  return gone;
 }
 
 }  // namespace sceneloc

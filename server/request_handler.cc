@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <ctime>
 #include <exception>
 #include <filesystem>
 #include <new>
@@ -10,6 +9,7 @@
 
 #include "common/map/map_name.h"
 #include "common/util/timer.h"
+#include "common/util/utc_time.h"
 #include "proto/wire.h"
 #include "server/jpeg_header.h"
 
@@ -20,15 +20,6 @@ using Clock = std::chrono::steady_clock;
 
 double MsSince(Clock::time_point t) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
-}
-
-std::string IsoUtc(std::chrono::system_clock::time_point t) {
-  const std::time_t seconds = std::chrono::system_clock::to_time_t(t);
-  std::tm tm{};
-  gmtime_r(&seconds, &tm);
-  char text[32];
-  std::strftime(text, sizeof(text), "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return text;
 }
 
 // Checks a JPEG's header against the limits, reserves its decoding memory from `budget`
@@ -180,7 +171,7 @@ void FillMapInfo(const LoadedMap& map, v1::MapInfo* info) {
   info->set_num_locations(map.map.num_places());
   info->set_num_landmarks(map.map.num_landmarks());
   info->set_memory_bytes(map.map.MemoryBytes());
-  info->set_loaded_utc(IsoUtc(map.loaded_at));
+  info->set_loaded_utc(UtcText(map.loaded_at));
   info->set_confidence_model(
       ConfidenceModelName(SupportedModel(map.map, ConfidenceModel::kCalibrated)));
   info->set_tolerance(map.map.options.tolerance);

@@ -75,17 +75,12 @@ Status RequestHandler::HandleKeptFrames(const v1::KeptFramesRequest& request,
         out->set_jpeg(std::move(f.jpeg));
       }
       reply->set_next_frame(static_cast<uint32_t>(page.next_frame));
+      reply->set_record(std::move(page.record));
       break;
     }
     case v1::KeptFramesRequest::DELETE: {
-      std::vector<KeptRun> runs;
-      if (!request.map().empty()) {
-        if (auto listed = keeper_->List(request.map()); listed.ok()) runs = *std::move(listed);
-      }
-      SCENELOC_RETURN_IF_ERROR(keeper_->Delete(request.map(), request.run()));
-      for (const KeptRun& run : runs) {
-        if (run.run == request.run()) FillRun(run, reply->add_runs());
-      }
+      SCENELOC_ASSIGN_OR_RETURN(const KeptRun gone, keeper_->Delete(request.map(), request.run()));
+      FillRun(gone, reply->add_runs());
       break;
     }
     default:

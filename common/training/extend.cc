@@ -323,11 +323,12 @@ StatusOr<ExtendResult> ExtendMap(const Map& map, const TourFeatures& walk,
   const size_t first_image = static_cast<size_t>(out.num_images());
   if (out.experiences.empty()) {
     const auto images = static_cast<uint32_t>(out.num_images());
-    Experience tour;  // its calibration is the map's, below
+    Experience tour;
     tour.name = "tour";
     tour.source_dir = out.provenance.tour_dir;
     tour.created_utc = out.provenance.created_utc;
     tour.num_images = tour.walk_frames = images;
+    tour.calibration = map.calibration;  // the same images, measured the same way
     out.experiences.push_back(tour);
   }
   Experience e;
@@ -354,13 +355,10 @@ StatusOr<ExtendResult> ExtendMap(const Map& map, const TourFeatures& walk,
   // well calibrated (docs/history.md, "Experiences").
   CalibrateMap(&out, &pool);
   for (Experience& x : out.experiences) {
-    if (x.calibration.valid) continue;
-    const bool whole_tour = x.kind == ExperienceKind::kTour && x.first_image == 0 &&
-                            x.num_images == static_cast<uint32_t>(map.num_images());
-    x.calibration = whole_tour && map.calibration.valid
-                        ? map.calibration  // the same images, measured the same way
-                        : CalibrateImages(out, static_cast<int>(x.first_image),
-                                          static_cast<int>(x.num_images), &pool);
+    if (!x.calibration.valid) {
+      x.calibration = CalibrateImages(out, static_cast<int>(x.first_image),
+                                      static_cast<int>(x.num_images), &pool);
+    }
   }
   SCENELOC_RETURN_IF_ERROR(out.Validate());
   out.Finalize();

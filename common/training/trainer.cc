@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <atomic>
-#include <ctime>
 #include <filesystem>
 
 #include "common/training/calibration.h"
@@ -17,6 +16,7 @@
 #include "common/util/mutex.h"
 #include "common/util/thread_pool.h"
 #include "common/util/timer.h"
+#include "common/util/utc_time.h"
 #include "common/util/version.h"
 
 namespace sceneloc {
@@ -251,14 +251,7 @@ Status FinishMap(const TrainOptions& options, ThreadPool* pool, TrainSummary* s,
 
 }  // namespace
 
-std::string UtcNow() {
-  const std::time_t now = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&now, &tm);
-  char buffer[32];
-  std::strftime(buffer, sizeof(buffer), "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return buffer;
-}
+std::string UtcNow() { return UtcText(std::chrono::system_clock::now()); }
 
 StatusOr<std::vector<FeatureSet>> ExtractImages(const std::vector<std::string>& image_paths,
                                                 const ExtractorOptions& options,

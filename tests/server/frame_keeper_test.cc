@@ -183,8 +183,8 @@ TEST_F(FrameKeeperTest, NeverPassesTheQuotaAndDeleteFreesIt) {
   ASSERT_TRUE(runs.ok());
   ASSERT_EQ(runs->size(), 1u);
   EXPECT_EQ((*runs)[0].frames, 1);
-  EXPECT_EQ(keeper->Delete("campus", "no-such-run").code(), StatusCode::kNotFound);
-  EXPECT_EQ(keeper->Delete("campus", "../campus").code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(keeper->Delete("campus", "no-such-run").status().code(), StatusCode::kNotFound);
+  EXPECT_EQ(keeper->Delete("campus", "../campus").status().code(), StatusCode::kInvalidArgument);
   EXPECT_EQ(keeper->Fetch("../etc", "x", 0, 1).status().code(), StatusCode::kInvalidArgument);
 }
 
